@@ -1,0 +1,202 @@
+#include "LensCommands.h"
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "Output.h"
+#include "flare/Error.h"
+#include "flare/LensDrawing.h"
+#include "flare/LensFile.h"
+#include "flare/LensSystem.h"
+#include "flare/Paraxial.h"
+#include "flare/RealRays.h"
+
+namespace flare::cli {
+
+namespace {
+
+struct LensOptions {
+    std::string file;
+    std::string zoom;
+    std::optional<double> focusMm;
+    std::optional<double> fNumber;
+};
+
+void addLensOptions(CLI::App* command, LensOptions& options) {
+    command->add_option("LENSFILE", options.file, "lens prescription (.lens, or pbrt .dat)")->required();
+    command->add_option("--zoom", options.zoom, "zoom position name, or a focal length in mm");
+    command->add_option("--focus", options.focusMm, "object distance in mm from the first vertex (default: the file's, usually infinity)")
+        ->check(CLI::PositiveNumber);
+    command->add_option("--f-number", options.fNumber, "stop the iris down to this f-number")
+        ->check(CLI::PositiveNumber);
+}
+
+LensSystem buildLens(const LensOptions& options) {
+    const LensPrescription prescription = loadLensFile(options.file);
+    return LensSystem::build(prescription, LensState{options.zoom, options.focusMm, options.fNumber});
+}
+
+nlohmann::json jsonNumber(double value) {
+    return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
+}
+
+nlohmann::json lensInfoJson(const LensPrescription& prescription, const LensSystem& lens,
+                            double wavelengthNm) {
+    const ParaxialData para = analyseParaxial(lens, wavelengthNm);
+    const std::optional<double> realFov = realFieldOfViewDeg(lens, wavelengthNm);
+    const SpectralIndices indices = lens.indicesAt(wavelengthNm);
+    nlohmann::json j;
+    j["name"] = lens.name();
+    j["source"] = prescription.source;
+    j["file"] = lens.sourceFile();
+    j["wavelength_nm"] = wavelengthNm;
+    if (prescription.focalLengthMm) j["nominal_focal_length_mm"] = *prescription.focalLengthMm;
+    if (prescription.fNumber) j["nominal_f_number"] = *prescription.fNumber;
+    if (!prescription.zoomPositions.empty()) {
+        j["zoom"] = {{"position", lens.zoomName().empty() ? nlohmann::json(nullptr) : nlohmann::json(lens.zoomName())},
+                     {"nominal_focal_length_mm", *lens.zoomFocalLengthMm()}};
+        nlohmann::json positions = nlohmann::json::array();
+        for (const ZoomPosition& z : prescription.zoomPositions)
+            positions.push_back({{"name", z.name}, {"focal_length_mm", z.focalLengthMm}});
+        j["zoom_positions"] = positions;
+    }
+    j["efl_mm"] = para.eflMm;
+    j["bfl_mm"] = para.bflMm;
+    j["front_focal_distance_mm"] = para.frontFocalDistanceMm;
+    j["object_distance_mm"] = jsonNumber(lens.objectDistanceMm());
+    j["image_distance_mm"] = para.imageDistanceMm;
+    j["entrance_pupil_z_mm"] = para.entrancePupilZMm;
+    j["entrance_pupil_diameter_mm"] = para.entrancePupilDiameterMm;
+    j["exit_pupil_z_mm"] = para.exitPupilZMm;
+    j["exit_pupil_diameter_mm"] = para.exitPupilDiameterMm;
+    j["f_number"] = para.fNumber;
+    j["working_f_number"] = para.workingFNumber;
+    j["field_of_view_deg"] = para.paraxialFieldOfViewDeg;
+    j["real_field_of_view_deg"] = realFov ? nlohmann::json(*realFov) : nlohmann::json(nullptr);
+    j["total_track_mm"] = para.totalTrackMm;
+    j["sensor"] = {{"width_mm", lens.sensor().widthMm},
+                   {"height_mm", lens.sensor().heightMm},
+                   {"reflectance", lens.sensor().reflectance},
+                   {"z_mm", lens.sensorZMm()}};
+    j["iris"] = {{"blades", lens.iris().blades()}, {"radius_mm", lens.iris().radiusMm()}};
+    j["surfaces"] = lens.surfaceCount();
+    int reflecting = 0;
+    nlohmann::json rows = nlohmann::json::array();
+    for (int i = 0; i < lens.surfaceCount(); ++i) {
+        const Surface& s = lens.surface(i);
+        if (lens.isReflecting(i)) ++reflecting;
+        const double next = i + 1 < lens.surfaceCount() ? lens.surface(i + 1).vertexZMm : lens.sensorZMm();
+        const Coating* coating = lens.coating(i);
+        rows.push_back({{"number", i + 1},
+                        {"stop", s.isStop},
+                        {"radius_mm", s.radiusMm == 0.0 ? nlohmann::json(nullptr) : nlohmann::json(s.radiusMm)},
+                        {"thickness_mm", next - s.vertexZMm},
+                        {"material", lens.mediumBefore(i + 1).describe()},
+                        {"index", indices.n[i + 1]},
+                        {"semi_aperture_mm", s.semiApertureMm},
+                        {"coating", coating ? coating->name : "none"},
+                        {"aspheric", s.hasPolynomial() || s.conic != 0.0}});
+    }
+    j["reflecting_surfaces"] = reflecting;
+    j["surface_rows"] = rows;
+    return j;
+}
+
+void printLensInfo(const nlohmann::json& j) {
+    std::printf("%s\n", j["name"].get<std::string>().c_str());
+    std::printf("  source               %s\n", j["source"].get<std::string>().c_str());
+    if (j.contains("zoom")) {
+        const auto& z = j["zoom"];
+        std::printf("  zoom                 %s (nominal %.2f mm)\n",
+                    z["position"].is_null() ? "interpolated" : z["position"].get<std::string>().c_str(),
+                    z["nominal_focal_length_mm"].get<double>());
+    }
+    std::printf("  wavelength           %.2f nm\n", j["wavelength_nm"].get<double>());
+    std::printf("  EFL                  %.4f mm\n", j["efl_mm"].get<double>());
+    std::printf("  BFL                  %.4f mm\n", j["bfl_mm"].get<double>());
+    std::printf("  front focal distance %.4f mm\n", j["front_focal_distance_mm"].get<double>());
+    std::printf("  entrance pupil       %.4f mm diameter at z = %.4f mm\n",
+                j["entrance_pupil_diameter_mm"].get<double>(), j["entrance_pupil_z_mm"].get<double>());
+    std::printf("  exit pupil           %.4f mm diameter at z = %.4f mm\n",
+                j["exit_pupil_diameter_mm"].get<double>(), j["exit_pupil_z_mm"].get<double>());
+    std::printf("  f-number             %.3f (working %.3f)\n", j["f_number"].get<double>(),
+                j["working_f_number"].get<double>());
+    std::printf("  field of view        %.2f deg diagonal paraxial", j["field_of_view_deg"].get<double>());
+    if (!j["real_field_of_view_deg"].is_null())
+        std::printf(", %.2f deg real chief ray", j["real_field_of_view_deg"].get<double>());
+    std::printf("\n  total track          %.4f mm\n", j["total_track_mm"].get<double>());
+    std::printf("  surfaces             %d (%d reflecting)\n\n", j["surfaces"].get<int>(),
+                j["reflecting_surfaces"].get<int>());
+    std::printf("  %3s %12s %10s %9s %10s  %s\n", "#", "radius", "thickness", "index", "semi-ap", "material");
+    for (const auto& row : j["surface_rows"]) {
+        const std::string radius = row["stop"].get<bool>() ? "stop"
+                                   : row["radius_mm"].is_null()
+                                       ? "inf"
+                                       : std::to_string(row["radius_mm"].get<double>());
+        std::printf("  %3d %12s %10.4f %9.5f %10.4f  %s%s\n", row["number"].get<int>(), radius.c_str(),
+                    row["thickness_mm"].get<double>(), row["index"].get<double>(),
+                    row["semi_aperture_mm"].get<double>(), row["material"].get<std::string>().c_str(),
+                    row["aspheric"].get<bool>() ? " [asphere]" : "");
+    }
+}
+
+}  // namespace
+
+void addLensCommands(CLI::App& app) {
+    CLI::App* lens = app.add_subcommand("lens", "inspect a lens prescription");
+    lens->require_subcommand(1);
+
+    auto infoOptions = std::make_shared<LensOptions>();
+    auto wavelength = std::make_shared<double>(kLineDNm);
+    auto json = std::make_shared<bool>(false);
+    CLI::App* info = lens->add_subcommand("info", "paraxial data and the surface table");
+    addLensOptions(info, *infoOptions);
+    info->add_option("--wavelength", *wavelength, "wavelength in nm (default: d line 587.56)")
+        ->check(CLI::Range(300.0, 2000.0));
+    info->add_flag("--json", *json, "print one JSON object");
+    info->callback([infoOptions, wavelength, json] {
+        const LensPrescription prescription = loadLensFile(infoOptions->file);
+        const LensSystem system = LensSystem::build(
+            prescription, LensState{infoOptions->zoom, infoOptions->focusMm, infoOptions->fNumber});
+        const nlohmann::json j = lensInfoJson(prescription, system, *wavelength);
+        if (*json) std::cout << j.dump(2) << "\n";
+        else printLensInfo(j);
+    });
+
+    auto drawOptions = std::make_shared<LensOptions>();
+    auto output = std::make_shared<std::string>();
+    auto rays = std::make_shared<int>(9);
+    auto field = std::make_shared<std::optional<double>>();
+    CLI::App* draw = lens->add_subcommand("draw", "SVG cutaway of the lens with traced ray fans");
+    addLensOptions(draw, *drawOptions);
+    draw->add_option("-o,--output", *output, "SVG file to write")->required();
+    draw->add_option("--rays", *rays, "rays per field fan")->check(CLI::Range(1, 1000));
+    draw->add_option("--field", *field, "off-axis field angle in degrees (default: the sensor's half width)")
+        ->check(CLI::Range(-89.0, 89.0));
+    draw->callback([drawOptions, output, rays, field] {
+        const LensSystem system = buildLens(*drawOptions);
+        LensDrawingOptions options;
+        options.raysPerField = *rays;
+        double fieldDeg = 0.0;
+        if (field->has_value()) {
+            fieldDeg = **field;
+        } else {
+            const ParaxialData para = analyseParaxial(system, kLineDNm);
+            fieldDeg = std::atan(0.5 * system.sensor().widthMm / std::abs(para.eflMm)) * 180.0 / M_PI;
+            fieldDeg = std::min(fieldDeg, 80.0);
+        }
+        options.fieldsDeg = {0.0};
+        if (fieldDeg != 0.0) options.fieldsDeg.push_back(fieldDeg);
+        const std::vector<DrawnRay> fans = traceRayFans(system, options);
+        writeFileAtomically(*output, drawLensSvg(system, fans, options));
+        std::printf("wrote %s (%zu rays)\n", output->c_str(), fans.size());
+    });
+}
+
+}  // namespace flare::cli

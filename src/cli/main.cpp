@@ -1,0 +1,28 @@
+// flare: the command-line front end. Each command is a thin layer over the engine library; user
+// input errors print one line "file:line: problem" and exit with code 2.
+#include <cstdio>
+#include <exception>
+
+#include <CLI/CLI.hpp>
+
+#include "LensCommands.h"
+#include "flare/Error.h"
+
+int main(int argc, char** argv) {
+    CLI::App app{"flare: physically based lens flare simulation"};
+    app.require_subcommand(1);
+    flare::cli::addLensCommands(app);
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        const int code = app.exit(e);
+        return code == 0 ? 0 : flare::kExitInputError;
+    } catch (const flare::InputError& e) {
+        std::fprintf(stderr, "flare: error: %s\n", e.what());
+        return flare::kExitInputError;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "flare: error: %s\n", e.what());
+        return 1;
+    }
+    return 0;
+}

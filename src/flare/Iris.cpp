@@ -1,0 +1,70 @@
+#include "flare/Iris.h"
+
+#include <cassert>
+#include <cmath>
+#include <numbers>
+
+namespace flare {
+
+namespace {
+
+struct BladeGeometry {
+    double apothem, halfChord, sagitta, arcCentre, arcRadius, area;
+};
+
+// Polygon of unit circumradius with N edges bowed by `curvature` towards the circle.
+BladeGeometry unitBlades(int blades, double curvature) {
+    const double half = std::numbers::pi / blades;
+    BladeGeometry g{};
+    g.apothem = std::cos(half);
+    g.halfChord = std::sin(half);
+    g.sagitta = curvature * (1.0 - g.apothem);
+    g.area = blades * g.apothem * g.halfChord;
+    if (g.sagitta > 0.0) {
+        // Circle through (apothem, ±halfChord) and (apothem + sagitta, 0).
+        const double u = (g.halfChord * g.halfChord - g.sagitta * g.sagitta) / (2.0 * g.sagitta);
+        g.arcRadius = u + g.sagitta;
+        g.arcCentre = g.apothem - u;
+        const double alpha = std::atan2(g.halfChord, u);
+        const double segment = g.arcRadius * g.arcRadius * alpha - g.halfChord * u;
+        g.area += blades * segment;
+    }
+    return g;
+}
+
+}  // namespace
+
+Iris::Iris(int blades, double rotationRad, double curvature, double radiusMm)
+    : blades_(blades), rotationRad_(rotationRad), curvature_(curvature), radiusMm_(radiusMm) {
+    assert(blades == 0 || blades >= 3);
+    if (blades_ == 0) {
+        circumradiusMm_ = radiusMm;
+        return;
+    }
+    const BladeGeometry unit = unitBlades(blades_, curvature_);
+    const double scale = radiusMm * std::sqrt(std::numbers::pi / unit.area);
+    circumradiusMm_ = scale;
+    apothemMm_ = unit.apothem * scale;
+    sectorRad_ = 2.0 * std::numbers::pi / blades_;
+    arcCentreMm_ = unit.arcCentre * scale;
+    arcRadiusMm_ = unit.arcRadius * scale;
+}
+
+bool Iris::contains(double x, double y) const {
+    const double r2 = x * x + y * y;
+    if (blades_ == 0) return r2 <= radiusMm_ * radiusMm_;
+    if (r2 > circumradiusMm_ * circumradiusMm_) return false;
+    if (r2 <= apothemMm_ * apothemMm_) return true;
+    // Rotate into the frame of the edge whose sector holds the point (mid-normal along +x).
+    const double phi = std::atan2(y, x) - rotationRad_;
+    const double sector = std::floor(phi / sectorRad_);
+    const double mid = rotationRad_ + (sector + 0.5) * sectorRad_;
+    const double xe = x * std::cos(mid) + y * std::sin(mid);
+    const double ye = -x * std::sin(mid) + y * std::cos(mid);
+    if (xe <= apothemMm_) return true;
+    if (arcRadiusMm_ == 0.0) return false;
+    const double dx = xe - arcCentreMm_;
+    return dx * dx + ye * ye <= arcRadiusMm_ * arcRadiusMm_;
+}
+
+}  // namespace flare

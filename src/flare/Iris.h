@@ -1,0 +1,35 @@
+// The aperture stop's opening: a circle, or an N-blade polygon whose blades may bow outwards.
+// The polygon is scaled to the same area as the circle of radius `radiusMm`, so a given f-number
+// passes the same power whatever the blade count.
+#pragma once
+
+namespace flare {
+
+class Iris {
+public:
+    Iris() = default;
+    // blades = 0 for a circular iris, else ≥ 3. curvature in [0, 1]: 0 straight blades,
+    // 1 blades on the circumscribed circle. rotationRad: angle of the first polygon vertex.
+    Iris(int blades, double rotationRad, double curvature, double radiusMm);
+
+    bool contains(double xMm, double yMm) const;
+
+    int blades() const { return blades_; }
+    double radiusMm() const { return radiusMm_; }          // area-equivalent radius
+    double circumradiusMm() const { return circumradiusMm_; }  // farthest opening point
+    double rotationRad() const { return rotationRad_; }
+    double curvature() const { return curvature_; }
+
+private:
+    int blades_ = 0;
+    double rotationRad_ = 0.0;
+    double curvature_ = 0.0;
+    double radiusMm_ = 0.0;
+    double circumradiusMm_ = 0.0;
+    double apothemMm_ = 0.0;
+    double sectorRad_ = 0.0;
+    double arcCentreMm_ = 0.0;  // along the edge's mid-normal, from the iris centre
+    double arcRadiusMm_ = 0.0;  // 0 for straight blades
+};
+
+}  // namespace flare

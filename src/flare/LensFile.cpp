@@ -1,0 +1,497 @@
+#include "flare/LensFile.h"
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <vector>
+
+#include "flare/Error.h"
+#include "flare/LensSystem.h"
+
+namespace flare {
+
+namespace {
+
+std::string lower(std::string_view s) {
+    std::string out(s);
+    for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return out;
+}
+
+std::vector<std::string_view> splitWhitespace(std::string_view line) {
+    std::vector<std::string_view> tokens;
+    size_t i = 0;
+    while (i < line.size()) {
+        while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+        size_t j = i;
+        while (j < line.size() && !std::isspace(static_cast<unsigned char>(line[j]))) ++j;
+        if (j > i) tokens.push_back(line.substr(i, j - i));
+        i = j;
+    }
+    return tokens;
+}
+
+std::string_view trim(std::string_view s) {
+    while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
+    while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
+    return s;
+}
+
+// One source line with its number, comment removed.
+struct Line {
+    int number;
+    std::string_view text;
+};
+
+std::vector<Line> splitLines(std::string_view text) {
+    std::vector<Line> lines;
+    int number = 0;
+    size_t start = 0;
+    while (start <= text.size()) {
+        size_t end = text.find('\n', start);
+        if (end == std::string_view::npos) end = text.size();
+        ++number;
+        std::string_view line = text.substr(start, end - start);
+        if (const size_t hash = line.find('#'); hash != std::string_view::npos) line = line.substr(0, hash);
+        line = trim(line);
+        if (!line.empty()) lines.push_back({number, line});
+        if (end == text.size()) break;
+        start = end + 1;
+    }
+    return lines;
+}
+
+class Parser {
+public:
+    Parser(std::string file) : file_(std::move(file)) {}
+
+    [[noreturn]] void error(int line, const std::string& problem) const {
+        throw InputError(file_, line, problem);
+    }
+
+    double number(int line, std::string_view token, const std::string& what) const {
+        const std::string t = lower(token);
+        if (t == "inf" || t == "infinity") return std::numeric_limits<double>::infinity();
+        if (t == "-inf" || t == "-infinity") return -std::numeric_limits<double>::infinity();
+        double value = 0.0;
+        const char* begin = token.data();
+        const char* end = token.data() + token.size();
+        if (!token.empty() && *begin == '+') ++begin;
+        const auto [ptr, ec] = std::from_chars(begin, end, value);
+        if (ec != std::errc() || ptr != end || !std::isfinite(value))
+            error(line, what + ": '" + std::string(token) + "' is not a number");
+        return value;
+    }
+
+    double finiteNumber(int line, std::string_view token, const std::string& what) const {
+        const double value = number(line, token, what);
+        if (!std::isfinite(value)) error(line, what + " must be finite");
+        return value;
+    }
+
+    double positive(int line, std::string_view token, const std::string& what) const {
+        const double value = finiteNumber(line, token, what);
+        if (!(value > 0.0)) error(line, what + " must be positive, got " + std::string(token));
+        return value;
+    }
+
+    // Splits "key=value"; errors if there is no '='.
+    std::pair<std::string, std::string_view> keyValue(int line, std::string_view token) const {
+        const size_t eq = token.find('=');
+        if (eq == std::string_view::npos || eq == 0 || eq + 1 == token.size())
+            error(line, "expected key=value, got '" + std::string(token) + "'");
+        return {lower(token.substr(0, eq)), token.substr(eq + 1)};
+    }
+
+    Medium material(int line, std::string_view token) const {
+        const std::string t = lower(token);
+        if (t == "air") return Medium::air();
+        if (t.rfind("n=", 0) == 0) {
+            const double n = positive(line, token.substr(2), "constant index");
+            if (n < 1.0) error(line, "constant index must be at least 1, got " + std::string(token.substr(2)));
+            return n == 1.0 ? Medium::air() : Medium::constant(n);
+        }
+        if (const size_t slash = token.find('/'); slash != std::string_view::npos) {
+            const double nd = finiteNumber(line, token.substr(0, slash), "material nd");
+            const double vd = finiteNumber(line, token.substr(slash + 1), "material Vd");
+            if (nd <= 1.0 || nd > 3.0) error(line, "material nd must lie in (1, 3], got " + std::string(token));
+            if (vd < 5.0 || vd > 150.0) error(line, "material Vd must lie in [5, 150], got " + std::string(token));
+            return Medium::abbe(nd, vd);
+        }
+        if (const CatalogGlass* glass = findCatalogGlass(token)) return Medium::catalog(*glass);
+        error(line, "unknown glass '" + std::string(token) +
+                        "' (not in the built-in catalogue; give it as nd/Vd, e.g. 1.6700/47.20)");
+    }
+
+private:
+    std::string file_;
+};
+
+constexpr const char* kAsphereKeys[kAsphereTerms] = {"a4", "a6", "a8", "a10", "a12", "a14", "a16"};
+
+void checkAperture(const Parser& parser, const PrescriptionRow& row) {
+    if (row.isStop) return;
+    const double c = row.radiusMm == 0.0 ? 0.0 : 1.0 / row.radiusMm;
+    const double r = row.semiApertureMm;
+    if ((1.0 + row.conic) * c * c * r * r > 1.0) {
+        if (row.conic == 0.0)
+            parser.error(row.line, "semi-aperture " + std::to_string(r) + " mm is larger than |radius| " +
+                                       std::to_string(std::abs(row.radiusMm)) + " mm");
+        parser.error(row.line, "semi-aperture " + std::to_string(r) +
+                                   " mm lies beyond the extent of the conic surface");
+    }
+}
+
+// Checks that apply to both formats once all rows are read.
+void validate(const Parser& parser, LensPrescription& p, int lastLine) {
+    if (p.rows.empty()) parser.error(lastLine, "the lens has no surface rows");
+    int stops = 0;
+    for (const PrescriptionRow& row : p.rows) {
+        if (!row.isStop) continue;
+        if (++stops > 1) parser.error(row.line, "a second aperture stop row (only one is allowed)");
+    }
+    if (stops == 0) parser.error(0, "missing aperture stop: one row must have radius 'stop'");
+    for (size_t i = 0; i < p.rows.size(); ++i) {
+        const PrescriptionRow& row = p.rows[i];
+        if (row.thickness.kind == ThicknessSpec::Kind::Auto && i + 1 != p.rows.size())
+            parser.error(row.line, "'auto' thickness is only allowed on the last row");
+        if (row.isStop) {
+            const Medium& before = i == 0 ? Medium::air() : p.rows[i - 1].mediumAfter;
+            const Medium& after = row.mediumAfter;
+            if (before.describe() != after.describe())
+                parser.error(row.line, "the stop must not change the medium (before: " + before.describe() +
+                                           ", after: " + after.describe() + ")");
+        }
+        if (row.thickness.kind == ThicknessSpec::Kind::Gap && !p.findGap(row.thickness.gapName))
+            parser.error(row.line, "unknown variable gap '" + row.thickness.gapName + "'");
+        if (row.coatingName && !p.findCoating(*row.coatingName))
+            parser.error(row.line, "unknown coating '" + *row.coatingName + "'");
+    }
+    if (!p.rows.back().mediumAfter.isAir())
+        parser.error(p.rows.back().line, "the last surface must be followed by air (the sensor side)");
+    if (!p.findCoating(p.defaultCoating))
+        parser.error(0, "unknown default coating '" + p.defaultCoating + "'");
+    // Resolve every zoom position once so that crossing surfaces are reported now.
+    if (p.zoomPositions.empty()) {
+        LensSystem::build(p);
+    } else {
+        for (const ZoomPosition& z : p.zoomPositions) LensSystem::build(p, LensState{z.name, {}, {}});
+    }
+}
+
+void parseCoating(const Parser& parser, LensPrescription& p, int line,
+                  const std::vector<std::string_view>& tokens) {
+    if (tokens.size() < 4)
+        parser.error(line, "coating needs a name, a kind (single or stack) and its layers");
+    Coating coating;
+    coating.name = std::string(tokens[1]);
+    if (coating.name == "none" || coating.name == "mgf2")
+        parser.error(line, "coating name '" + coating.name + "' is built in and cannot be redefined");
+    const std::string kind = lower(tokens[2]);
+    if (kind == "single") {
+        std::optional<double> index, quarterWaveNm, thicknessNm;
+        for (size_t i = 3; i < tokens.size(); ++i) {
+            const auto [key, value] = parser.keyValue(line, tokens[i]);
+            if (key == "n") index = parser.positive(line, value, "coating index");
+            else if (key == "quarter_wave_nm") quarterWaveNm = parser.positive(line, value, "quarter_wave_nm");
+            else if (key == "thickness_nm") thicknessNm = parser.positive(line, value, "thickness_nm");
+            else parser.error(line, "unknown coating option '" + key + "'");
+        }
+        if (!index) parser.error(line, "single-layer coating needs n=");
+        if (quarterWaveNm.has_value() == thicknessNm.has_value())
+            parser.error(line, "single-layer coating needs exactly one of quarter_wave_nm= or thickness_nm=");
+        coating.layers.push_back({*index, thicknessNm ? *thicknessNm : *quarterWaveNm / (4.0 * *index)});
+    } else if (kind == "stack") {
+        for (size_t i = 3; i < tokens.size(); ++i) {
+            const size_t colon = tokens[i].find(':');
+            if (colon == std::string_view::npos)
+                parser.error(line, "stack layer '" + std::string(tokens[i]) + "' must be index:thickness_nm");
+            coating.layers.push_back({parser.positive(line, tokens[i].substr(0, colon), "layer index"),
+                                      parser.positive(line, tokens[i].substr(colon + 1), "layer thickness")});
+        }
+    } else {
+        parser.error(line, "unknown coating kind '" + std::string(tokens[2]) + "' (single or stack)");
+    }
+    for (const Coating& c : p.coatings)
+        if (c.name == coating.name) parser.error(line, "coating '" + coating.name + "' is defined twice");
+    p.coatings.push_back(std::move(coating));
+}
+
+void parseHeader(const Parser& parser, LensPrescription& p, const Line& line) {
+    const std::vector<std::string_view> tokens = splitWhitespace(line.text);
+    const std::string key = lower(tokens[0]);
+    const std::string_view rest = trim(line.text.substr(tokens[0].size()));
+    const int n = line.number;
+    auto requireValue = [&] {
+        if (tokens.size() < 2) parser.error(n, "'" + key + "' needs a value");
+    };
+    auto requireSingle = [&] {
+        if (tokens.size() != 2) parser.error(n, "'" + key + "' takes exactly one value");
+    };
+    if (key == "name") {
+        requireValue();
+        p.name = std::string(rest);
+    } else if (key == "source") {
+        requireValue();
+        p.source = std::string(rest);
+    } else if (key == "focal_length_mm") {
+        requireSingle();
+        p.focalLengthMm = parser.positive(n, tokens[1], "focal_length_mm");
+    } else if (key == "f_number") {
+        requireSingle();
+        p.fNumber = parser.positive(n, tokens[1], "f_number");
+    } else if (key == "object_distance_mm") {
+        requireSingle();
+        p.objectDistanceMm = parser.number(n, tokens[1], "object_distance_mm");
+        if (!(p.objectDistanceMm > 0.0)) parser.error(n, "object_distance_mm must be positive or inf");
+    } else if (key == "iris") {
+        for (size_t i = 1; i < tokens.size(); ++i) {
+            const auto [k, v] = parser.keyValue(n, tokens[i]);
+            if (k == "blades") {
+                const double blades = parser.finiteNumber(n, v, "iris blades");
+                if (blades != std::floor(blades) || (blades != 0 && blades < 3) || blades > 64)
+                    parser.error(n, "iris blades must be 0 (circular) or an integer from 3 to 64");
+                p.iris.blades = static_cast<int>(blades);
+            } else if (k == "rotation_deg") {
+                p.iris.rotationDeg = parser.finiteNumber(n, v, "iris rotation_deg");
+            } else if (k == "curvature") {
+                p.iris.curvature = parser.finiteNumber(n, v, "iris curvature");
+                if (p.iris.curvature < 0.0 || p.iris.curvature > 1.0)
+                    parser.error(n, "iris curvature must lie in [0, 1]");
+            } else {
+                parser.error(n, "unknown iris option '" + k + "'");
+            }
+        }
+    } else if (key == "sensor") {
+        for (size_t i = 1; i < tokens.size(); ++i) {
+            const auto [k, v] = parser.keyValue(n, tokens[i]);
+            if (k == "width_mm") p.sensor.widthMm = parser.positive(n, v, "sensor width_mm");
+            else if (k == "height_mm") p.sensor.heightMm = parser.positive(n, v, "sensor height_mm");
+            else if (k == "reflectance") {
+                p.sensor.reflectance = parser.finiteNumber(n, v, "sensor reflectance");
+                if (p.sensor.reflectance < 0.0 || p.sensor.reflectance > 1.0)
+                    parser.error(n, "sensor reflectance must lie in [0, 1]");
+            } else parser.error(n, "unknown sensor option '" + k + "'");
+        }
+    } else if (key == "housing") {
+        for (size_t i = 1; i < tokens.size(); ++i) {
+            const auto [k, v] = parser.keyValue(n, tokens[i]);
+            if (k == "margin_mm") {
+                p.housingMarginMm = parser.finiteNumber(n, v, "housing margin_mm");
+                if (p.housingMarginMm < 0.0) parser.error(n, "housing margin_mm must not be negative");
+            } else parser.error(n, "unknown housing option '" + k + "'");
+        }
+    } else if (key == "zoom") {
+        if (!p.zoomPositions.empty()) parser.error(n, "zoom positions are given twice");
+        if (tokens.size() < 2) parser.error(n, "zoom needs at least one name=focal_length position");
+        for (size_t i = 1; i < tokens.size(); ++i) {
+            const auto [k, v] = parser.keyValue(n, tokens[i]);
+            const double f = parser.positive(n, v, "zoom focal length");
+            for (const ZoomPosition& z : p.zoomPositions)
+                if (z.name == k) parser.error(n, "zoom position '" + k + "' is given twice");
+            if (!p.zoomPositions.empty() && f <= p.zoomPositions.back().focalLengthMm)
+                parser.error(n, "zoom positions must be listed in increasing focal length");
+            p.zoomPositions.push_back({k, f});
+        }
+    } else if (key == "gap") {
+        if (p.zoomPositions.empty()) parser.error(n, "gap lines must follow the zoom line");
+        if (tokens.size() < 2) parser.error(n, "gap needs a name and one value per zoom position");
+        VariableGap gap;
+        gap.name = std::string(tokens[1]);
+        gap.line = n;
+        if (p.findGap(gap.name)) parser.error(n, "gap '" + gap.name + "' is defined twice");
+        std::vector<std::optional<double>> values(p.zoomPositions.size());
+        for (size_t i = 2; i < tokens.size(); ++i) {
+            const auto [k, v] = parser.keyValue(n, tokens[i]);
+            auto it = std::find_if(p.zoomPositions.begin(), p.zoomPositions.end(),
+                                   [&](const ZoomPosition& z) { return z.name == k; });
+            if (it == p.zoomPositions.end()) parser.error(n, "gap '" + gap.name + "': unknown zoom position '" + k + "'");
+            const double value = parser.finiteNumber(n, v, "gap value");
+            if (value < 0.0) parser.error(n, "gap '" + gap.name + "' is negative at '" + k + "'");
+            values[it - p.zoomPositions.begin()] = value;
+        }
+        for (size_t i = 0; i < values.size(); ++i) {
+            if (!values[i])
+                parser.error(n, "gap '" + gap.name + "' has no value for zoom position '" +
+                                    p.zoomPositions[i].name + "'");
+            gap.valuesMm.push_back(*values[i]);
+        }
+        p.gaps.push_back(std::move(gap));
+    } else if (key == "coating") {
+        parseCoating(parser, p, n, tokens);
+    } else if (key == "default_coating") {
+        requireSingle();
+        p.defaultCoating = std::string(tokens[1]);
+        if (!p.findCoating(p.defaultCoating))
+            parser.error(n, "unknown coating '" + p.defaultCoating + "' (define it with a coating line first)");
+    } else {
+        parser.error(n, "unknown header keyword '" + std::string(tokens[0]) + "'");
+    }
+}
+
+PrescriptionRow parseRow(const Parser& parser, const Line& line) {
+    const std::vector<std::string_view> tokens = splitWhitespace(line.text);
+    const int n = line.number;
+    // The material column may itself contain '=' (n=1.67); options follow the fourth column.
+    size_t columns = std::min<size_t>(tokens.size(), 4);
+    for (size_t i = 4; i < tokens.size(); ++i)
+        if (tokens[i].find('=') == std::string_view::npos) ++columns;
+    if (columns != 4)
+        parser.error(n, "expected 4 columns (radius thickness material semi_aperture) before the options, found " +
+                            std::to_string(columns));
+    PrescriptionRow row;
+    row.line = n;
+    const std::string radius = lower(tokens[0]);
+    if (radius == "stop") {
+        row.isStop = true;
+    } else {
+        const double r = parser.number(n, tokens[0], "radius");
+        row.radiusMm = std::isinf(r) ? 0.0 : r;
+    }
+    const std::string thickness = lower(tokens[1]);
+    if (thickness == "auto") {
+        row.thickness.kind = ThicknessSpec::Kind::Auto;
+    } else if (std::isalpha(static_cast<unsigned char>(tokens[1][0])) || tokens[1][0] == '_') {
+        row.thickness.kind = ThicknessSpec::Kind::Gap;
+        row.thickness.gapName = std::string(tokens[1]);
+    } else {
+        row.thickness.valueMm = parser.finiteNumber(n, tokens[1], "thickness");
+        if (row.thickness.valueMm < 0.0) parser.error(n, "thickness must not be negative");
+    }
+    row.materialText = std::string(tokens[2]);
+    row.mediumAfter = parser.material(n, tokens[2]);
+    row.semiApertureMm = parser.positive(n, tokens[3], "semi_aperture");
+    for (size_t i = 4; i < tokens.size(); ++i) {
+        const auto [key, value] = parser.keyValue(n, tokens[i]);
+        if (key == "k") {
+            row.conic = parser.finiteNumber(n, value, "conic constant k");
+            continue;
+        }
+        if (key == "coating") {
+            row.coatingName = std::string(value);
+            continue;
+        }
+        if (key == "mech") {
+            row.mechSemiDiameterMm = parser.positive(n, value, "mech");
+            continue;
+        }
+        const auto* it = std::find(std::begin(kAsphereKeys), std::end(kAsphereKeys), key);
+        if (it == std::end(kAsphereKeys)) parser.error(n, "unknown surface option '" + key + "'");
+        row.asphere[it - std::begin(kAsphereKeys)] = parser.finiteNumber(n, value, key);
+    }
+    if (row.isStop && (row.conic != 0.0 || row.mechSemiDiameterMm))
+        parser.error(n, "the stop row takes no surface options");
+    if (row.mechSemiDiameterMm && *row.mechSemiDiameterMm < row.semiApertureMm)
+        parser.error(n, "mech must not be smaller than the semi-aperture");
+    checkAperture(parser, row);
+    return row;
+}
+
+std::string readFile(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw InputError(path, 0, std::string("cannot open lens file: ") + std::strerror(errno));
+    std::ostringstream buffer;
+    buffer << in.rdbuf();
+    return buffer.str();
+}
+
+std::string stem(const std::string& path) {
+    const size_t slash = path.find_last_of('/');
+    std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
+    if (const size_t dot = name.rfind(".dat"); dot != std::string::npos && dot + 4 == name.size())
+        name.resize(dot);
+    return name;
+}
+
+}  // namespace
+
+LensPrescription parseLensText(std::string_view text, const std::string& fileName) {
+    const Parser parser(fileName);
+    LensPrescription p;
+    p.sourceFile = fileName;
+    const std::vector<Line> lines = splitLines(text);
+    bool inSurfaces = false;
+    int lastLine = 0;
+    for (const Line& line : lines) {
+        lastLine = line.number;
+        if (!inSurfaces) {
+            if (lower(line.text) == "surfaces" || lower(line.text) == "surfaces:") {
+                inSurfaces = true;
+                continue;
+            }
+            parseHeader(parser, p, line);
+        } else {
+            p.rows.push_back(parseRow(parser, line));
+        }
+    }
+    if (p.name.empty()) parser.error(0, "missing header line 'name'");
+    if (!inSurfaces) parser.error(lastLine, "missing the 'surfaces' line that starts the surface table");
+    if (!p.focalLengthMm && p.zoomPositions.empty())
+        parser.error(0, "missing header line 'focal_length_mm' (or 'zoom')");
+    for (const VariableGap& gap : p.gaps) {
+        const bool used = std::any_of(p.rows.begin(), p.rows.end(), [&](const PrescriptionRow& r) {
+            return r.thickness.kind == ThicknessSpec::Kind::Gap && r.thickness.gapName == gap.name;
+        });
+        if (!used) parser.error(gap.line, "gap '" + gap.name + "' is defined but no row uses it");
+    }
+    validate(parser, p, lastLine);
+    return p;
+}
+
+LensPrescription parsePbrtLensText(std::string_view text, const std::string& fileName) {
+    const Parser parser(fileName);
+    LensPrescription p;
+    p.sourceFile = fileName;
+    p.name = stem(fileName);
+    p.source = "pbrt lens file " + fileName;
+    const std::vector<Line> lines = splitLines(text);
+    int lastLine = 0;
+    for (const Line& line : lines) {
+        lastLine = line.number;
+        const std::vector<std::string_view> tokens = splitWhitespace(line.text);
+        const int n = line.number;
+        if (tokens.size() != 4)
+            parser.error(n, "expected 4 columns (radius thickness index aperture-diameter), found " +
+                                std::to_string(tokens.size()));
+        PrescriptionRow row;
+        row.line = n;
+        row.radiusMm = parser.finiteNumber(n, tokens[0], "radius");
+        row.isStop = row.radiusMm == 0.0;
+        row.thickness.valueMm = parser.finiteNumber(n, tokens[1], "thickness");
+        if (row.thickness.valueMm < 0.0) parser.error(n, "thickness must not be negative");
+        const double index = parser.finiteNumber(n, tokens[2], "index");
+        row.semiApertureMm = 0.5 * parser.positive(n, tokens[3], "aperture diameter");
+        if (row.isStop) {
+            // pbrt writes 0 (or the surrounding index) for the stop: the medium does not change.
+            row.mediumAfter = p.rows.empty() ? Medium::air() : p.rows.back().mediumAfter;
+            row.materialText = "(stop)";
+        } else if (index == 0.0 || index == 1.0) {
+            row.mediumAfter = Medium::air();
+            row.materialText = "air";
+        } else {
+            if (index < 1.0) parser.error(n, "index must be 0 or 1 (air) or above 1, got " + std::string(tokens[2]));
+            row.mediumAfter = Medium::constant(index);
+            row.materialText = "n=" + std::string(tokens[2]);
+        }
+        checkAperture(parser, row);
+        p.rows.push_back(row);
+    }
+    if (p.rows.empty()) parser.error(lastLine, "the lens has no surface rows");
+    // The last thickness in a pbrt file is not a sensor distance: focus at infinity instead.
+    p.rows.back().thickness.kind = ThicknessSpec::Kind::Auto;
+    validate(parser, p, lastLine);
+    return p;
+}
+
+LensPrescription loadLensFile(const std::string& path) {
+    const std::string text = readFile(path);
+    const bool pbrt = path.size() >= 4 && lower(path.substr(path.size() - 4)) == ".dat";
+    return pbrt ? parsePbrtLensText(text, path) : parseLensText(text, path);
+}
+
+}  // namespace flare

@@ -1,0 +1,19 @@
+// Reading lens prescriptions: the native `.lens` format (docs/lens-format.md) and pbrt's
+// four-column `.dat` files. Every problem raises InputError naming the file and line.
+#pragma once
+
+#include <string>
+#include <string_view>
+
+#include "flare/LensPrescription.h"
+
+namespace flare {
+
+// Chooses the reader by extension (`.dat`: pbrt; anything else: native).
+LensPrescription loadLensFile(const std::string& path);
+
+// Parses text already in memory; `fileName` is used in error messages and as the source file.
+LensPrescription parseLensText(std::string_view text, const std::string& fileName);
+LensPrescription parsePbrtLensText(std::string_view text, const std::string& fileName);
+
+}  // namespace flare

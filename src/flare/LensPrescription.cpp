@@ -1,0 +1,25 @@
+#include "flare/LensPrescription.h"
+
+namespace flare {
+
+int LensPrescription::stopRow() const {
+    for (size_t i = 0; i < rows.size(); ++i)
+        if (rows[i].isStop) return static_cast<int>(i);
+    return -1;
+}
+
+const VariableGap* LensPrescription::findGap(const std::string& gapName) const {
+    for (const VariableGap& g : gaps)
+        if (g.name == gapName) return &g;
+    return nullptr;
+}
+
+std::optional<Coating> LensPrescription::findCoating(const std::string& coatingName) const {
+    for (const Coating& c : coatings)
+        if (c.name == coatingName) return c;
+    if (coatingName == "none") return Coating{"none", {}};
+    if (coatingName == "mgf2") return Coating::magnesiumFluoride();
+    return std::nullopt;
+}
+
+}  // namespace flare

@@ -1,0 +1,88 @@
+// A lens prescription as read from a file: rows like a patent table, with variable gaps still
+// named and zoom positions unresolved. LensSystem::build turns it into surfaces at a zoom/focus
+// state.
+#pragma once
+
+#include <array>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "flare/Coating.h"
+#include "flare/Glass.h"
+#include "flare/Surface.h"
+
+namespace flare {
+
+// Surfaces (rows, counting the stop) a lens may have. Keeps per-wavelength index tables on the
+// stack in the tracers.
+inline constexpr int kMaxSurfaces = 96;
+
+struct ThicknessSpec {
+    enum class Kind { Value, Gap, Auto };
+    Kind kind = Kind::Value;
+    double valueMm = 0.0;
+    std::string gapName;  // Kind::Gap
+};
+
+struct PrescriptionRow {
+    double radiusMm = 0.0;  // 0: plane
+    bool isStop = false;
+    ThicknessSpec thickness;
+    Medium mediumAfter;
+    std::string materialText;  // as written in the file
+    double semiApertureMm = 0.0;
+    double conic = 0.0;
+    std::array<double, kAsphereTerms> asphere{};
+    std::optional<double> mechSemiDiameterMm;
+    std::optional<std::string> coatingName;  // per-row override of the default coating
+    int line = 0;
+};
+
+struct ZoomPosition {
+    std::string name;
+    double focalLengthMm = 0.0;  // published focal length of this position
+};
+
+struct VariableGap {
+    std::string name;
+    std::vector<double> valuesMm;  // one per zoom position, in ZoomPosition order
+    int line = 0;
+};
+
+struct IrisSpec {
+    int blades = 0;  // 0: circular
+    double rotationDeg = 0.0;
+    double curvature = 0.0;
+};
+
+struct SensorSpec {
+    double widthMm = 36.0;
+    double heightMm = 24.0;
+    double reflectance = 0.02;
+};
+
+struct LensPrescription {
+    std::string name;
+    std::string source;
+    std::string sourceFile;  // path the prescription was read from
+    std::optional<double> focalLengthMm;
+    std::optional<double> fNumber;
+    IrisSpec iris;
+    SensorSpec sensor;
+    double objectDistanceMm = std::numeric_limits<double>::infinity();
+    double housingMarginMm = 1.0;
+    std::vector<ZoomPosition> zoomPositions;
+    std::vector<VariableGap> gaps;
+    std::vector<Coating> coatings;    // named coatings defined in the file
+    std::string defaultCoating = "none";
+    std::vector<PrescriptionRow> rows;
+
+    int stopRow() const;  // index into rows, −1 if none
+    const VariableGap* findGap(const std::string& name) const;
+    // A coating by name: file-defined first, then built-ins ("none", "mgf2").
+    std::optional<Coating> findCoating(const std::string& name) const;
+};
+
+}  // namespace flare

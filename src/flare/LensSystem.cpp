@@ -1,0 +1,268 @@
+#include "flare/LensSystem.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+
+#include "flare/Error.h"
+#include "flare/Paraxial.h"
+
+namespace flare {
+
+namespace {
+
+std::string formatMm(double value) {
+    char buffer[64];
+    std::snprintf(buffer, sizeof buffer, "%.4g", value);
+    return buffer;
+}
+
+struct ZoomWeights {
+    int a = 0, b = 0;  // bracketing zoom positions
+    double t = 0.0;    // weight of b
+    std::string name;
+    std::optional<double> focalLengthMm;
+};
+
+ZoomWeights resolveZoom(const LensPrescription& p, const std::string& zoom) {
+    ZoomWeights w;
+    if (p.zoomPositions.empty()) {
+        if (!zoom.empty())
+            throw InputError(p.sourceFile, 0,
+                             "zoom '" + zoom + "' requested but the lens has no zoom positions");
+        return w;
+    }
+    if (zoom.empty()) {
+        w.name = p.zoomPositions[0].name;
+        w.focalLengthMm = p.zoomPositions[0].focalLengthMm;
+        return w;
+    }
+    for (size_t i = 0; i < p.zoomPositions.size(); ++i) {
+        if (p.zoomPositions[i].name == zoom) {
+            w.a = w.b = static_cast<int>(i);
+            w.name = zoom;
+            w.focalLengthMm = p.zoomPositions[i].focalLengthMm;
+            return w;
+        }
+    }
+    double focal = 0.0;
+    const auto [end, ec] = std::from_chars(zoom.data(), zoom.data() + zoom.size(), focal);
+    std::string names;
+    for (const ZoomPosition& z : p.zoomPositions) names += (names.empty() ? "" : ", ") + z.name;
+    if (ec != std::errc() || end != zoom.data() + zoom.size())
+        throw InputError(p.sourceFile, 0,
+                         "unknown zoom position '" + zoom + "' (positions: " + names +
+                             ", or a focal length in mm)");
+    const double lo = p.zoomPositions.front().focalLengthMm;
+    const double hi = p.zoomPositions.back().focalLengthMm;
+    if (focal < lo || focal > hi)
+        throw InputError(p.sourceFile, 0,
+                         "zoom focal length " + formatMm(focal) + " mm is outside the lens's range " +
+                             formatMm(lo) + "–" + formatMm(hi) + " mm");
+    for (size_t i = 0; i + 1 < p.zoomPositions.size(); ++i) {
+        const double f0 = p.zoomPositions[i].focalLengthMm, f1 = p.zoomPositions[i + 1].focalLengthMm;
+        if (focal >= f0 && focal <= f1) {
+            w.a = static_cast<int>(i);
+            w.b = static_cast<int>(i + 1);
+            w.t = f1 > f0 ? (focal - f0) / (f1 - f0) : 0.0;
+            break;
+        }
+    }
+    w.focalLengthMm = focal;
+    return w;
+}
+
+// z of the surface at radius r, continuing flat beyond its clear aperture (the element's bevel).
+double profileZMm(const Surface& s, double r) {
+    const double rc = std::min(r, s.semiApertureMm);
+    double sag = 0.0;
+    if (!s.sagMm(rc * rc, &sag)) sag = 0.0;
+    return s.vertexZMm + sag;
+}
+
+// Consecutive surfaces must not cross anywhere out to the larger clear aperture: that is an
+// element (or an air space) with a negative edge thickness.
+void checkEdgeThickness(const LensPrescription& p, const std::vector<Surface>& surfaces) {
+    constexpr int kSamples = 64;
+    for (size_t i = 0; i + 1 < surfaces.size(); ++i) {
+        const Surface& a = surfaces[i];
+        const Surface& b = surfaces[i + 1];
+        const double rMax = (a.isStop || b.isStop)
+                                ? std::min(a.semiApertureMm, b.semiApertureMm)
+                                : std::max(a.semiApertureMm, b.semiApertureMm);
+        for (int k = 0; k <= kSamples; ++k) {
+            const double r = rMax * k / kSamples;
+            const double gap = profileZMm(b, r) - profileZMm(a, r);
+            if (gap < -1e-9) {
+                const bool glass = !p.rows[i].mediumAfter.isAir();
+                throw InputError(p.sourceFile, b.fileLine,
+                                 "surface " + std::to_string(i + 2) + " crosses surface " +
+                                     std::to_string(i + 1) + " at r = " + formatMm(r) + " mm (" +
+                                     (glass ? "element" : "air space") + " edge thickness " +
+                                     formatMm(gap) + " mm)");
+            }
+        }
+    }
+}
+
+}  // namespace
+
+LensSystem LensSystem::build(const LensPrescription& p, const LensState& state) {
+    LensSystem lens;
+    lens.name_ = p.name;
+    lens.sourceFile_ = p.sourceFile;
+    lens.sensor_ = p.sensor;
+    lens.stopIndex_ = p.stopRow();
+    if (lens.stopIndex_ < 0) throw InputError(p.sourceFile, 0, "the lens has no aperture stop row");
+    if (static_cast<int>(p.rows.size()) > kMaxSurfaces)
+        throw InputError(p.sourceFile, 0, "more than " + std::to_string(kMaxSurfaces) + " surfaces");
+
+    const ZoomWeights zoom = resolveZoom(p, state.zoom);
+    lens.zoomName_ = zoom.name;
+    lens.zoomFocalLengthMm_ = zoom.focalLengthMm;
+
+    // Place the vertices.
+    double z = 0.0;
+    bool autoFocus = false;
+    lens.media_.push_back(Medium::air());
+    for (size_t i = 0; i < p.rows.size(); ++i) {
+        const PrescriptionRow& row = p.rows[i];
+        Surface s;
+        s.radiusMm = row.radiusMm;
+        s.conic = row.conic;
+        s.asphere = row.asphere;
+        s.semiApertureMm = row.semiApertureMm;
+        s.vertexZMm = z;
+        s.isStop = row.isStop;
+        s.fileLine = row.line;
+        lens.surfaces_.push_back(s);
+        lens.media_.push_back(row.mediumAfter);
+
+        double thickness = 0.0;
+        switch (row.thickness.kind) {
+            case ThicknessSpec::Kind::Value: thickness = row.thickness.valueMm; break;
+            case ThicknessSpec::Kind::Gap: {
+                const VariableGap* gap = p.findGap(row.thickness.gapName);
+                if (!gap)
+                    throw InputError(p.sourceFile, row.line,
+                                     "unknown variable gap '" + row.thickness.gapName + "'");
+                thickness = (1.0 - zoom.t) * gap->valuesMm[zoom.a] + zoom.t * gap->valuesMm[zoom.b];
+                break;
+            }
+            case ThicknessSpec::Kind::Auto: autoFocus = true; break;
+        }
+        z += thickness;
+    }
+    lens.sensorZMm_ = z;
+
+    // Mechanical edges: every surface of a glass group (an element or a cemented group) shares the
+    // group's largest clear radius unless the file gives `mech=`.
+    for (size_t i = 0; i < p.rows.size();) {
+        size_t j = i;
+        while (j + 1 < p.rows.size() && !p.rows[j].mediumAfter.isAir()) ++j;
+        double groupRadius = 0.0;
+        for (size_t k = i; k <= j; ++k) groupRadius = std::max(groupRadius, p.rows[k].semiApertureMm);
+        for (size_t k = i; k <= j; ++k)
+            lens.surfaces_[k].mechSemiDiameterMm =
+                std::max(p.rows[k].mechSemiDiameterMm.value_or(groupRadius), p.rows[k].semiApertureMm);
+        i = j + 1;
+    }
+
+    // Coatings sit on air–glass interfaces only.
+    for (size_t i = 0; i < p.rows.size(); ++i) {
+        const bool airBefore = lens.media_[i].isAir();
+        const bool airAfter = lens.media_[i + 1].isAir();
+        int index = -1;
+        if (!p.rows[i].isStop && airBefore != airAfter) {
+            const std::string name = p.rows[i].coatingName.value_or(p.defaultCoating);
+            const std::optional<Coating> coating = p.findCoating(name);
+            if (!coating)
+                throw InputError(p.sourceFile, p.rows[i].line, "unknown coating '" + name + "'");
+            if (!coating->layers.empty()) {
+                auto it = std::find_if(lens.coatings_.begin(), lens.coatings_.end(),
+                                       [&](const Coating& c) { return c.name == coating->name; });
+                if (it == lens.coatings_.end()) {
+                    lens.coatings_.push_back(*coating);
+                    it = lens.coatings_.end() - 1;
+                }
+                index = static_cast<int>(it - lens.coatings_.begin());
+            }
+        }
+        lens.coatingIndex_.push_back(index);
+    }
+
+    const PrescriptionRow& stopRow = p.rows[lens.stopIndex_];
+    lens.iris_ = Iris(p.iris.blades, p.iris.rotationDeg * std::numbers::pi / 180.0,
+                      p.iris.curvature, stopRow.semiApertureMm);
+
+    checkEdgeThickness(p, lens.surfaces_);
+
+    // Focus solve and f-stop: both first-order, at the d line.
+    const SpectralIndices dLine = lens.indicesAt(kLineDNm);
+    lens.objectDistanceMm_ = state.objectDistanceMm.value_or(p.objectDistanceMm);
+    if (autoFocus || state.objectDistanceMm) {
+        const double minimum = lens.surfaces_.back().vertexZMm;
+        const double imageZ = paraxialImageZMm(lens, dLine, lens.objectDistanceMm_);
+        if (!std::isfinite(imageZ) || imageZ <= minimum)
+            throw InputError(p.sourceFile, p.rows.back().line,
+                             "focus solve failed: the image of an object at " +
+                                 formatMm(lens.objectDistanceMm_) +
+                                 " mm does not lie behind the last surface");
+        lens.sensorZMm_ = imageZ;
+    }
+    if (state.fNumber) {
+        const double efl = paraxialEflMm(lens, dLine);
+        const double pupilRadius = std::abs(efl) / (2.0 * *state.fNumber);
+        const double stopRadius = pupilRadius / pupilMagnification(lens, dLine);
+        if (!(*state.fNumber > 0.0) || stopRadius > stopRow.semiApertureMm * (1.0 + 1e-9)) {
+            const double wideOpen = std::abs(efl) / (2.0 * stopRow.semiApertureMm *
+                                                     pupilMagnification(lens, dLine));
+            throw InputError(p.sourceFile, 0,
+                             "f/" + formatMm(*state.fNumber) + " is not available: the lens opens to f/" +
+                                 formatMm(wideOpen) + " at this zoom");
+        }
+        lens.iris_ = Iris(p.iris.blades, p.iris.rotationDeg * std::numbers::pi / 180.0,
+                          p.iris.curvature, stopRadius);
+    }
+
+    // Barrel: between consecutive surfaces, a cylinder just outside the larger edge.
+    const double margin = p.housingMarginMm;
+    const int n = lens.surfaceCount();
+    for (int i = 0; i < n; ++i) {
+        const Surface& a = lens.surfaces_[i];
+        const double zEnd = i + 1 < n ? lens.surfaces_[i + 1].vertexZMm : lens.sensorZMm_;
+        double radius = a.mechSemiDiameterMm;
+        if (i + 1 < n) radius = std::max(radius, lens.surfaces_[i + 1].mechSemiDiameterMm);
+        else radius = std::max(radius, lens.sensorHalfDiagonalMm());
+        lens.housing_.push_back({a.vertexZMm, zEnd, radius + margin});
+    }
+    return lens;
+}
+
+double LensSystem::sensorHalfDiagonalMm() const {
+    return 0.5 * std::hypot(sensor_.widthMm, sensor_.heightMm);
+}
+
+const Coating* LensSystem::coating(int i) const {
+    const int index = coatingIndex_[i];
+    return index < 0 ? nullptr : &coatings_[index];
+}
+
+bool LensSystem::isReflecting(int i) const {
+    if (surfaces_[i].isStop) return false;
+    const Medium& a = media_[i];
+    const Medium& b = media_[i + 1];
+    if (a.kind() != b.kind()) return true;
+    return a.indexAt(kLineDNm) != b.indexAt(kLineDNm) || a.baseGlass() != b.baseGlass();
+}
+
+SpectralIndices LensSystem::indicesAt(double wavelengthNm) const {
+    SpectralIndices indices;
+    indices.wavelengthNm = wavelengthNm;
+    for (size_t i = 0; i < media_.size(); ++i) indices.n[i] = media_[i].indexAt(wavelengthNm);
+    return indices;
+}
+
+}  // namespace flare

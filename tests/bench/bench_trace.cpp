@@ -1,0 +1,86 @@
+// Micro-benchmarks of exact sequential tracing through the double Gauss: real rays per second and
+// surface interactions per second, on one thread and on all threads (TBB).
+#include <atomic>
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include <benchmark/benchmark.h>
+#include <glm/geometric.hpp>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+
+#include "flare/LensFile.h"
+#include "flare/LensSystem.h"
+#include "flare/RealRays.h"
+#include "flare/SequentialTracer.h"
+
+namespace {
+
+using namespace flare;
+
+const LensSystem& doubleGauss() {
+    static const LensSystem lens =
+        LensSystem::build(loadLensFile(std::string(FLARE_SOURCE_DIR) + "/lenses/double-gauss-50mm.lens"));
+    return lens;
+}
+
+// Rays filling the front aperture within a ±10° cone: a mix of passing and vignetted rays, like
+// the photons of a flare render.
+std::vector<Ray> makeRays(const LensSystem& lens, size_t count) {
+    std::mt19937_64 rng(1);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    const double z = objectSpaceStartZMm(lens);
+    const double r = lens.surface(0).semiApertureMm;
+    std::vector<Ray> rays;
+    while (rays.size() < count) {
+        const double x = r * u(rng), y = r * u(rng);
+        if (x * x + y * y > r * r) continue;
+        rays.push_back({{x, y, z}, glm::normalize(glm::dvec3(0.18 * u(rng), 0.18 * u(rng), 1.0))});
+    }
+    return rays;
+}
+
+void BM_TraceForwardSingleThread(benchmark::State& state) {
+    const LensSystem& lens = doubleGauss();
+    const SpectralIndices idx = lens.indicesAt(550.0);
+    const std::vector<Ray> rays = makeRays(lens, 4096);
+    std::int64_t interactions = 0, passed = 0;
+    size_t i = 0;
+    for (auto _ : state) {
+        const TraceResult r = traceForward(lens, idx, rays[i++ & 4095]);
+        interactions += r.interactions;
+        passed += r.ok();
+        benchmark::DoNotOptimize(r);
+    }
+    state.SetItemsProcessed(state.iterations());
+    state.counters["rays/s"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+    state.counters["interactions/s"] = benchmark::Counter(static_cast<double>(interactions), benchmark::Counter::kIsRate);
+    state.counters["pass_fraction"] = static_cast<double>(passed) / static_cast<double>(state.iterations());
+}
+BENCHMARK(BM_TraceForwardSingleThread);
+
+// All hardware threads through TBB; wall-clock rate. The argument is the thread count.
+void BM_TraceForwardThreads(benchmark::State& state) {
+    const int threads = static_cast<int>(state.range(0));
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    const LensSystem& lens = doubleGauss();
+    const SpectralIndices idx = lens.indicesAt(550.0);
+    const std::vector<Ray> rays = makeRays(lens, 1 << 20);
+    std::atomic<std::int64_t> interactions{0};
+    for (auto _ : state) {
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), 4096), [&](const tbb::blocked_range<size_t>& range) {
+            std::int64_t local = 0;
+            for (size_t i = range.begin(); i != range.end(); ++i) local += traceForward(lens, idx, rays[i]).interactions;
+            interactions += local;
+        });
+    }
+    const double total = static_cast<double>(state.iterations()) * static_cast<double>(rays.size());
+    state.counters["rays/s"] = benchmark::Counter(total, benchmark::Counter::kIsRate);
+    state.counters["interactions/s"] = benchmark::Counter(static_cast<double>(interactions.load()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_TraceForwardThreads)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

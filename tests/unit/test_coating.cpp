@@ -1,0 +1,85 @@
+// Thin-film coatings: the quarter-wave closed form, energy balance, and the uncoated limit.
+#include <cmath>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "flare/Coating.h"
+#include "flare/Glass.h"
+
+namespace flare {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+double quarterWaveReflectance(double n0, double n1, double n2) {
+    const double a = n0 * n2 - n1 * n1, b = n0 * n2 + n1 * n1;
+    return (a / b) * (a / b);
+}
+
+TEST(Coating, QuarterWaveMgF2OnBk7MatchesClosedForm) {
+    const Coating mgf2 = Coating::magnesiumFluoride();
+    const double n550 = catalogIndex(*findCatalogGlass("N-BK7"), 550.0);
+    EXPECT_NEAR(thinFilmResponse(mgf2, 1.0, 1.0, n550, true, 550.0).reflectance(),
+                quarterWaveReflectance(1.0, 1.38, n550), 1e-14);
+    // The quoted ≈1.28 % uses the catalogue nd of N-BK7 as the substrate index.
+    const double nd = findCatalogGlass("N-BK7")->nd;
+    EXPECT_NEAR(thinFilmResponse(mgf2, 1.0, 1.0, nd, true, 550.0).reflectance(), 0.0128, 0.00005);
+}
+
+TEST(Coating, QuarterWaveClosedFormForOtherIndices) {
+    for (const auto& [n1, n2] : {std::pair{1.38, 1.9}, std::pair{1.45, 1.6}, std::pair{2.1, 1.5}}) {
+        const Coating c = Coating::quarterWave("q", n1, 600.0);
+        EXPECT_NEAR(thinFilmResponse(c, 1.0, 1.0, n2, true, 600.0).reflectance(),
+                    quarterWaveReflectance(1.0, n1, n2), 1e-14);
+    }
+}
+
+TEST(Coating, EnergyBalanceAtAllAnglesWavelengthsAndSides) {
+    const Coating stack{"stack", {{1.38, 99.6}, {2.05, 134.1}, {1.62, 84.9}}};
+    for (const Coating& c : {Coating::magnesiumFluoride(), stack}) {
+        for (double l : {400.0, 550.0, 700.0}) {
+            for (int i = 0; i < 90; ++i) {
+                for (bool fromAir : {true, false}) {
+                    const FresnelTerms f = thinFilmResponse(c, std::cos(i * kDeg), 1.0, 1.6, fromAir, l);
+                    if (f.totalInternalReflection) {
+                        EXPECT_EQ(f.reflectance(), 1.0);
+                        continue;
+                    }
+                    EXPECT_NEAR(f.rs + f.ts, 1.0, 1e-12) << c.name << " " << l << " " << i;
+                    EXPECT_NEAR(f.rp + f.tp, 1.0, 1e-12) << c.name << " " << l << " " << i;
+                }
+            }
+        }
+    }
+}
+
+TEST(Coating, UncoatedAndZeroThicknessLimitsEqualFresnel) {
+    const Coating empty{"none", {}};
+    const Coating zero{"zero", {{1.38, 0.0}}};
+    for (int i = 0; i < 90; i += 3) {
+        const double cosI = std::cos(i * kDeg);
+        const FresnelTerms bare = fresnelDielectric(cosI, 1.0, 1.7);
+        for (const Coating& c : {empty, zero}) {
+            const FresnelTerms f = thinFilmResponse(c, cosI, 1.0, 1.7, true, 550.0);
+            EXPECT_NEAR(f.rs, bare.rs, 1e-13);
+            EXPECT_NEAR(f.rp, bare.rp, 1e-13);
+        }
+    }
+}
+
+TEST(Coating, SameReflectanceFromBothSidesOfALosslessStack) {
+    const Coating c = Coating::magnesiumFluoride();
+    // Angles related by Snell's law in the outer media.
+    for (int i = 0; i < 60; i += 5) {
+        const double sinAir = std::sin(i * kDeg);
+        const double cosGlass = std::sqrt(1.0 - (sinAir / 1.6) * (sinAir / 1.6));
+        const FresnelTerms fromAir = thinFilmResponse(c, std::cos(i * kDeg), 1.0, 1.6, true, 500.0);
+        const FresnelTerms fromGlass = thinFilmResponse(c, cosGlass, 1.0, 1.6, false, 500.0);
+        EXPECT_NEAR(fromAir.rs, fromGlass.rs, 1e-13);
+        EXPECT_NEAR(fromAir.rp, fromGlass.rp, 1e-13);
+    }
+}
+
+}  // namespace
+}  // namespace flare

@@ -1,0 +1,67 @@
+// The iris: circular and polygonal openings, with area equal to the nominal circle.
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "flare/Iris.h"
+
+namespace flare {
+namespace {
+
+// Fraction of a square [−R, R]² inside the iris, on a fine deterministic grid.
+double openArea(const Iris& iris, double halfSide, int grid) {
+    std::int64_t inside = 0;
+    for (int i = 0; i < grid; ++i)
+        for (int j = 0; j < grid; ++j) {
+            const double x = -halfSide + (i + 0.5) * 2.0 * halfSide / grid;
+            const double y = -halfSide + (j + 0.5) * 2.0 * halfSide / grid;
+            inside += iris.contains(x, y);
+        }
+    return 4.0 * halfSide * halfSide * static_cast<double>(inside) / (static_cast<double>(grid) * grid);
+}
+
+TEST(Iris, CircularIsADisk) {
+    const Iris iris(0, 0.0, 0.0, 5.0);
+    EXPECT_TRUE(iris.contains(4.99, 0.0));
+    EXPECT_FALSE(iris.contains(3.6, 3.6));
+}
+
+TEST(Iris, PolygonsHaveTheAreaOfTheNominalCircle) {
+    // Grid integration: the boundary cells give an error of order perimeter·cell / area; 1000²
+    // cells over a square just enclosing the opening bound it well below 0.3 %.
+    const double circle = std::numbers::pi * 25.0;
+    for (int blades : {3, 5, 6, 9}) {
+        for (double curvature : {0.0, 0.5, 1.0}) {
+            const Iris iris(blades, 0.3, curvature, 5.0);
+            EXPECT_NEAR(openArea(iris, 1.05 * iris.circumradiusMm(), 1000) / circle, 1.0, 0.003)
+                << blades << " blades, curvature " << curvature;
+        }
+    }
+}
+
+TEST(Iris, HexagonVerticesAndEdges) {
+    const Iris iris(6, 0.0, 0.0, 5.0);
+    const double R = iris.circumradiusMm();
+    const double apothem = R * std::cos(std::numbers::pi / 6);
+    EXPECT_TRUE(iris.contains(0.999 * R, 0.0));  // a vertex at the rotation angle
+    EXPECT_FALSE(iris.contains(1.001 * R, 0.0));
+    // Edge midpoint at 30°.
+    const double c = std::cos(std::numbers::pi / 6), s = std::sin(std::numbers::pi / 6);
+    EXPECT_TRUE(iris.contains(0.999 * apothem * c, 0.999 * apothem * s));
+    EXPECT_FALSE(iris.contains(1.001 * apothem * c, 1.001 * apothem * s));
+}
+
+TEST(Iris, FullyCurvedBladesAreTheCircumcircle) {
+    const Iris iris(7, 0.2, 1.0, 5.0);
+    EXPECT_NEAR(iris.circumradiusMm(), 5.0, 1e-12);
+    for (int i = 0; i < 360; i += 7) {
+        const double a = i * std::numbers::pi / 180.0;
+        EXPECT_TRUE(iris.contains(4.999 * std::cos(a), 4.999 * std::sin(a)));
+        EXPECT_FALSE(iris.contains(5.001 * std::cos(a), 5.001 * std::sin(a)));
+    }
+}
+
+}  // namespace
+}  // namespace flare
