@@ -29,7 +29,7 @@ struct LensOptions {
 };
 
 void addLensOptions(CLI::App* command, LensOptions& options) {
-    command->add_option("LENSFILE", options.file, "lens prescription (.lens, or pbrt .dat)")->required();
+    command->add_option("LENSFILE", options.file, "lens prescription (.lens, or pbrt .dat), or the name of a shipped lens such as double-gauss-50mm")->required();
     command->add_option("--zoom", options.zoom, "zoom position name, or a focal length in mm");
     command->add_option("--focus", options.focusMm, "object distance in mm from the first vertex (default: the file's, usually infinity)")
         ->check(CLI::PositiveNumber);
@@ -38,7 +38,7 @@ void addLensOptions(CLI::App* command, LensOptions& options) {
 }
 
 LensSystem buildLens(const LensOptions& options) {
-    const LensPrescription prescription = loadLensFile(options.file);
+    const LensPrescription prescription = loadLens(options.file);
     return LensSystem::build(prescription, LensState{options.zoom, options.focusMm, options.fNumber});
 }
 
@@ -161,7 +161,7 @@ void addLensCommands(CLI::App& app) {
         ->check(CLI::Range(300.0, 2000.0));
     info->add_flag("--json", *json, "print one JSON object");
     info->callback([infoOptions, wavelength, json] {
-        const LensPrescription prescription = loadLensFile(infoOptions->file);
+        const LensPrescription prescription = loadLens(infoOptions->file);
         const LensSystem system = LensSystem::build(
             prescription, LensState{infoOptions->zoom, infoOptions->focusMm, infoOptions->fNumber});
         const nlohmann::json j = lensInfoJson(prescription, system, *wavelength);

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <vector>
 
+#include "flare/EmbeddedLenses.h"
 #include "flare/Error.h"
 #include "flare/LensSystem.h"
 
@@ -486,6 +487,16 @@ LensPrescription parsePbrtLensText(std::string_view text, const std::string& fil
     p.rows.back().thickness.kind = ThicknessSpec::Kind::Auto;
     validate(parser, p, lastLine);
     return p;
+}
+
+LensPrescription loadLens(const std::string& pathOrName) {
+    if (pathOrName.find('/') == std::string::npos && !std::ifstream(pathOrName).good()) {
+        std::string name = pathOrName;
+        if (name.size() > 5 && name.compare(name.size() - 5, 5, ".lens") == 0) name.resize(name.size() - 5);
+        for (const EmbeddedLens& lens : embeddedLenses())
+            if (name == lens.name) return parseLensText(lens.text, "lenses/" + name + ".lens");
+    }
+    return loadLensFile(pathOrName);
 }
 
 LensPrescription loadLensFile(const std::string& path) {

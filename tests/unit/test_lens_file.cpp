@@ -43,6 +43,20 @@ TEST(LensFile, ShippedLensesLoadWithSourcesAndCoatings) {
     }
 }
 
+TEST(LensFile, ShippedLensesAreEmbeddedAndLoadByName) {
+    for (const char* file : test::kShippedLenses) {
+        std::string name = std::string(file).substr(std::string("lenses/").size());
+        name.resize(name.size() - 5);
+        const LensPrescription embedded = loadLens(name);
+        const LensPrescription onDisk = loadLensFile(test::sourcePath(file));
+        EXPECT_EQ(embedded.name, onDisk.name);
+        ASSERT_EQ(embedded.rows.size(), onDisk.rows.size()) << name;
+        for (size_t i = 0; i < onDisk.rows.size(); ++i)
+            EXPECT_EQ(embedded.rows[i].radiusMm, onDisk.rows[i].radiusMm) << name << " row " << i;
+    }
+    EXPECT_THROW(loadLens("no-such-lens"), InputError);
+}
+
 TEST(LensFile, WellFormedRowsWithOptions) {
     const LensPrescription p = parseLensText(std::string(kHeader) + R"(
 iris blades=7 rotation_deg=10 curvature=0.3
