@@ -49,7 +49,7 @@ nlohmann::json jsonNumber(double value) {
 nlohmann::json lensInfoJson(const LensPrescription& prescription, const LensSystem& lens,
                             double wavelengthNm) {
     const ParaxialData para = analyseParaxial(lens, wavelengthNm);
-    const std::optional<double> realFov = realFieldOfViewDeg(lens, wavelengthNm);
+    const RealFieldOfView realFov = realFieldOfView(lens, wavelengthNm);
     const SpectralIndices indices = lens.indicesAt(wavelengthNm);
     nlohmann::json j;
     j["name"] = lens.name();
@@ -78,7 +78,14 @@ nlohmann::json lensInfoJson(const LensPrescription& prescription, const LensSyst
     j["f_number"] = para.fNumber;
     j["working_f_number"] = para.workingFNumber;
     j["field_of_view_deg"] = para.paraxialFieldOfViewDeg;
-    j["real_field_of_view_deg"] = realFov ? nlohmann::json(*realFov) : nlohmann::json(nullptr);
+    // null unless the real chief ray reaches the sensor corner below a 90° field; fisheyes that
+    // cover more than 180° say so with the chief-ray height at 89.9°.
+    j["real_field_of_view_deg"] = realFov.kind == RealFieldOfView::Kind::Reached
+                                      ? nlohmann::json(realFov.fullAngleDeg)
+                                      : nlohmann::json(nullptr);
+    j["real_field_of_view_beyond_180"] = realFov.kind == RealFieldOfView::Kind::Beyond180;
+    if (realFov.kind == RealFieldOfView::Kind::Beyond180)
+        j["chief_ray_height_at_89_9_deg_mm"] = realFov.maxFieldImageHeightMm;
     j["total_track_mm"] = para.totalTrackMm;
     j["sensor"] = {{"width_mm", lens.sensor().widthMm},
                    {"height_mm", lens.sensor().heightMm},
@@ -130,6 +137,9 @@ void printLensInfo(const nlohmann::json& j) {
     std::printf("  field of view        %.2f deg diagonal paraxial", j["field_of_view_deg"].get<double>());
     if (!j["real_field_of_view_deg"].is_null())
         std::printf(", %.2f deg real chief ray", j["real_field_of_view_deg"].get<double>());
+    else if (j["real_field_of_view_beyond_180"].get<bool>())
+        std::printf(", beyond 180 deg real (chief ray at 89.9 deg lands at %.3f mm)",
+                    j["chief_ray_height_at_89_9_deg_mm"].get<double>());
     std::printf("\n  total track          %.4f mm\n", j["total_track_mm"].get<double>());
     std::printf("  surfaces             %d (%d reflecting)\n\n", j["surfaces"].get<int>(),
                 j["reflecting_surfaces"].get<int>());

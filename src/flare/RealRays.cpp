@@ -50,21 +50,29 @@ double objectSpaceStartZMm(const LensSystem& lens) {
 
 std::optional<Ray> aimAtStop(const LensSystem& lens, const SpectralIndices& indices, double fieldRad,
                              double stopXMm, double stopYMm, const Ray* guess) {
-    const double zStart = objectSpaceStartZMm(lens);
+    // Rays of one field are parallel; each is named by where it crosses the plane through the
+    // paraxial entrance pupil's centre perpendicular to the direction (coordinates x along e1, y
+    // along e2). This stays well conditioned up to 90° fields, where a plane z = const does not.
+    const ParaxialData para = analyseParaxial(lens, indices.wavelengthNm);
     const glm::dvec3 direction(std::sin(fieldRad), 0.0, std::cos(fieldRad));
+    const glm::dvec3 e1(std::cos(fieldRad), 0.0, -std::sin(fieldRad));
+    const glm::dvec3 e2(0.0, 1.0, 0.0);
+    const glm::dvec3 pupil(0.0, 0.0, para.entrancePupilZMm);
+    double farMm = lens.totalTrackMm() + std::abs(para.entrancePupilZMm);
+    for (int i = 0; i < lens.surfaceCount(); ++i) farMm += lens.surface(i).semiApertureMm;
+    auto rayAt = [&](double a, double b) { return Ray{pupil + a * e1 + b * e2 - farMm * direction, direction}; };
+
     double x = 0.0, y = 0.0;
     if (guess) {
-        const double t = (zStart - guess->originMm.z) / guess->direction.z;
-        x = guess->originMm.x + t * guess->direction.x;
-        y = guess->originMm.y + t * guess->direction.y;
+        x = glm::dot(guess->originMm - pupil, e1);
+        y = glm::dot(guess->originMm - pupil, e2);
     } else {
-        const ParaxialData para = analyseParaxial(lens, indices.wavelengthNm);
         const double m = para.entrancePupilDiameterMm / (2.0 * lens.iris().radiusMm());
-        x = stopXMm * m + (zStart - para.entrancePupilZMm) * std::tan(fieldRad);
+        x = stopXMm * m * std::cos(fieldRad);
         y = stopYMm * m;
     }
-    auto residual = [&](double px, double py, glm::dvec2* r) {
-        const std::optional<glm::dvec3> p = pointOnStop(lens, indices, Ray{{px, py, zStart}, direction});
+    auto residual = [&](double a, double b, glm::dvec2* r) {
+        const std::optional<glm::dvec3> p = pointOnStop(lens, indices, rayAt(a, b));
         if (!p) return false;
         *r = glm::dvec2(p->x - stopXMm, p->y - stopYMm);
         return true;
@@ -73,7 +81,14 @@ std::optional<Ray> aimAtStop(const LensSystem& lens, const SpectralIndices& indi
     if (!residual(x, y, &r)) return std::nullopt;
     const double scale = std::max(1.0, lens.iris().radiusMm());
     for (int iteration = 0; iteration < 60; ++iteration) {
-        if (glm::length(r) < 1e-10 * scale) return Ray{{x, y, zStart}, direction};
+        if (glm::length(r) < 1e-10 * scale) {
+            // Report the ray from a point just in front of the lens, on its own line.
+            Ray ray = rayAt(x, y);
+            const double zStart = objectSpaceStartZMm(lens);
+            if (direction.z > 1e-6 && ray.originMm.z < zStart)
+                ray.originMm = ray.at((zStart - ray.originMm.z) / direction.z);
+            return ray;
+        }
         const double h = 1e-6 * scale;
         glm::dvec2 rx, ry;
         if (!residual(x + h, y, &rx) || !residual(x, y + h, &ry)) return std::nullopt;
@@ -112,18 +127,19 @@ std::optional<double> chiefRayImageHeightMm(const LensSystem& lens, const Spectr
     return result.ray.originMm.x;
 }
 
-std::optional<double> realFieldOfViewDeg(const LensSystem& lens, double wavelengthNm) {
+RealFieldOfView realFieldOfView(const LensSystem& lens, double wavelengthNm) {
     const SpectralIndices indices = lens.indicesAt(wavelengthNm);
     const double target = lens.sensorHalfDiagonalMm();
     // Walk out in field with continuation (each solution seeds the next), then bisect.
     std::optional<Ray> previous;
     double previousDeg = 0.0;
-    for (double deg = 0.5; deg <= 89.5 + 1e-9; deg += 0.5) {
+    double last = 0.0;
+    for (double deg = 0.5; deg <= 89.9 + 1e-9; deg += deg < 89.5 ? 0.5 : 0.4) {
         const std::optional<Ray> chief =
             aimAtStop(lens, indices, deg * kDegToRad, 0.0, 0.0, previous ? &*previous : nullptr);
-        if (!chief) return std::nullopt;
+        if (!chief) return {};
         const std::optional<double> h = chiefRayImageHeightMm(lens, indices, deg * kDegToRad, &*chief);
-        if (!h) return std::nullopt;
+        if (!h) return {};
         if (std::abs(*h) >= target) {
             double lo = previousDeg, hi = deg;
             Ray seed = *chief;
@@ -136,12 +152,13 @@ std::optional<double> realFieldOfViewDeg(const LensSystem& lens, double waveleng
                 seed = *aimed;
                 (std::abs(*hm) >= target ? hi : lo) = mid;
             }
-            return 2.0 * 0.5 * (lo + hi);
+            return {RealFieldOfView::Kind::Reached, lo + hi, 0.0};
         }
         previous = chief;
         previousDeg = deg;
+        last = *h;
     }
-    return std::nullopt;
+    return {RealFieldOfView::Kind::Beyond180, 0.0, std::abs(last)};
 }
 
 }  // namespace flare

@@ -24,8 +24,15 @@ std::optional<Ray> aimAtStop(const LensSystem& lens, const SpectralIndices& indi
 std::optional<double> chiefRayImageHeightMm(const LensSystem& lens, const SpectralIndices& indices,
                                             double fieldRad, const Ray* guess = nullptr);
 
-// Full diagonal field of view whose real chief rays reach the sensor corners, in degrees; nullopt
-// when it is not reached below 179° (or aiming fails first).
-std::optional<double> realFieldOfViewDeg(const LensSystem& lens, double wavelengthNm);
+struct RealFieldOfView {
+    enum class Kind { Reached, Beyond180, Failed };
+    Kind kind = Kind::Failed;
+    double fullAngleDeg = 0.0;   // Reached: the diagonal field of view
+    double maxFieldImageHeightMm = 0.0;  // Beyond180: chief-ray height at the 89.9° field
+};
+
+// Diagonal field of view whose real chief rays reach the sensor corners. Fisheyes whose chief ray
+// at a 89.9° field still lands inside the corner report Beyond180; Failed if aiming fails first.
+RealFieldOfView realFieldOfView(const LensSystem& lens, double wavelengthNm);
 
 }  // namespace flare

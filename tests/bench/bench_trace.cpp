@@ -41,14 +41,17 @@ std::vector<Ray> makeRays(const LensSystem& lens, size_t count) {
     return rays;
 }
 
+// Argument 1: with Fresnel/thin-film weights (what a flare render needs); 0: geometry only.
 void BM_TraceForwardSingleThread(benchmark::State& state) {
     const LensSystem& lens = doubleGauss();
     const SpectralIndices idx = lens.indicesAt(550.0);
     const std::vector<Ray> rays = makeRays(lens, 4096);
+    TraceOptions options;
+    options.fresnelWeights = state.range(0) != 0;
     std::int64_t interactions = 0, passed = 0;
     size_t i = 0;
     for (auto _ : state) {
-        const TraceResult r = traceForward(lens, idx, rays[i++ & 4095]);
+        const TraceResult r = traceForward(lens, idx, rays[i++ & 4095], options);
         interactions += r.interactions;
         passed += r.ok();
         benchmark::DoNotOptimize(r);
@@ -58,7 +61,7 @@ void BM_TraceForwardSingleThread(benchmark::State& state) {
     state.counters["interactions/s"] = benchmark::Counter(static_cast<double>(interactions), benchmark::Counter::kIsRate);
     state.counters["pass_fraction"] = static_cast<double>(passed) / static_cast<double>(state.iterations());
 }
-BENCHMARK(BM_TraceForwardSingleThread);
+BENCHMARK(BM_TraceForwardSingleThread)->ArgName("fresnel")->Arg(1)->Arg(0);
 
 // All hardware threads through TBB; wall-clock rate. The argument is the thread count.
 void BM_TraceForwardThreads(benchmark::State& state) {

@@ -180,3 +180,34 @@ surfaces
 
 }  // namespace
 }  // namespace flare
+
+namespace flare {
+namespace {
+
+TEST(RealFieldOfView, ChiefRayAtHalfTheFieldLandsOnTheSensorCorner) {
+    for (const char* file : {"lenses/double-gauss-50mm.lens", "lenses/wide-angle-28mm.lens"}) {
+        const LensSystem lens = loadLens(file);
+        const RealFieldOfView fov = realFieldOfView(lens, kLineDNm);
+        ASSERT_EQ(fov.kind, RealFieldOfView::Kind::Reached) << file;
+        const double half = 0.5 * fov.fullAngleDeg * std::numbers::pi / 180.0;
+        const std::optional<double> h = chiefRayImageHeightMm(lens, lens.indicesAt(kLineDNm), half);
+        ASSERT_TRUE(h) << file;
+        // Bisection to 2^-40 of a 0.5° bracket: the height is exact to far below a micrometre.
+        EXPECT_NEAR(std::abs(*h), lens.sensorHalfDiagonalMm(), 1e-6) << file;
+        // Rectilinear lenses: the real field is within a few percent of the paraxial one.
+        EXPECT_NEAR(fov.fullAngleDeg / analyseParaxial(lens, kLineDNm).paraxialFieldOfViewDeg, 1.0, 0.05) << file;
+    }
+}
+
+TEST(RealFieldOfView, FullFrameFisheyeCoversMoreThan180Degrees) {
+    const LensSystem lens = loadLens("lenses/fisheye-16mm.lens");
+    const RealFieldOfView fov = realFieldOfView(lens, kLineDNm);
+    ASSERT_EQ(fov.kind, RealFieldOfView::Kind::Beyond180);
+    EXPECT_LT(fov.maxFieldImageHeightMm, lens.sensorHalfDiagonalMm());
+    // A rectilinear lens of this focal length would need an infinite image height; the fisheye
+    // keeps the 90° chief ray near 2f·sin(45°) (equisolid angle), within 10 %.
+    EXPECT_NEAR(fov.maxFieldImageHeightMm / (2.0 * 15.67 * std::sin(std::numbers::pi / 4)), 1.0, 0.1);
+}
+
+}  // namespace
+}  // namespace flare
