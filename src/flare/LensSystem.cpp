@@ -193,6 +193,14 @@ LensSystem LensSystem::build(const LensPrescription& p, const LensState& state) 
         lens.coatingIndex_.push_back(index);
     }
 
+    // An interface reflects wherever the media on its two sides differ at any wavelength.
+    for (int i = 0; i < lens.surfaceCount(); ++i) {
+        bool differ = false;
+        for (double wavelength : {kLineFNm, kLineDNm, kLineCNm})
+            differ |= lens.media_[i].indexAt(wavelength) != lens.media_[i + 1].indexAt(wavelength);
+        lens.reflecting_.push_back(!lens.surfaces_[i].isStop && differ);
+    }
+
     const PrescriptionRow& stopRow = p.rows[lens.stopIndex_];
     lens.iris_ = Iris(p.iris.blades, p.iris.rotationDeg * std::numbers::pi / 180.0,
                       p.iris.curvature, stopRow.semiApertureMm);
@@ -250,13 +258,7 @@ const Coating* LensSystem::coating(int i) const {
     return index < 0 ? nullptr : &coatings_[index];
 }
 
-bool LensSystem::isReflecting(int i) const {
-    if (surfaces_[i].isStop) return false;
-    const Medium& a = media_[i];
-    const Medium& b = media_[i + 1];
-    if (a.kind() != b.kind()) return true;
-    return a.indexAt(kLineDNm) != b.indexAt(kLineDNm) || a.baseGlass() != b.baseGlass();
-}
+bool LensSystem::isReflecting(int i) const { return reflecting_[i]; }
 
 SpectralIndices LensSystem::indicesAt(double wavelengthNm) const {
     SpectralIndices indices;

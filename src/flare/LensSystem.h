@@ -74,6 +74,7 @@ private:
     std::vector<Surface> surfaces_;
     std::vector<Medium> media_;  // size surfaceCount + 1
     std::vector<int> coatingIndex_;  // per surface, −1 for none
+    std::vector<bool> reflecting_;
     std::vector<Coating> coatings_;
     std::vector<HousingSection> housing_;
     Iris iris_;

@@ -36,13 +36,18 @@ namespace {
 
 int lastSurface(const LensSystem& lens) { return lens.surfaceCount() - 1; }
 
+// A ray from the axial object point at objectDistanceMm in front of the first vertex (parallel to
+// the axis at unit height for an object at infinity).
+ParaxialRay axialObjectRay(const LensSystem& lens, const SpectralIndices& indices, double objectDistanceMm) {
+    const double z0 = lens.surface(0).vertexZMm;
+    return std::isinf(objectDistanceMm) ? ParaxialRay{z0, 1.0, 0.0, indices.n[0]}
+                                        : ParaxialRay{z0 - objectDistanceMm, 0.0, 1.0, indices.n[0]};
+}
+
 // Marginal ray from the axial object point, scaled to the edge of the stop.
 ParaxialRay marginalRayInImageSpace(const LensSystem& lens, const SpectralIndices& indices,
                                     double objectDistanceMm) {
-    const double z0 = lens.surface(0).vertexZMm;
-    ParaxialRay start = std::isinf(objectDistanceMm)
-                            ? ParaxialRay{z0, 1.0, 0.0, indices.n[0]}
-                            : ParaxialRay{z0 - objectDistanceMm, 0.0, 1.0, indices.n[0]};
+    ParaxialRay start = axialObjectRay(lens, indices, objectDistanceMm);
     const int stop = lens.stopIndex();
     const ParaxialRay atStop = paraxialForward(lens, indices, start, 0, stop);
     const double scale = atStop.y != 0.0 ? lens.iris().radiusMm() / atStop.y : 0.0;
@@ -61,11 +66,8 @@ double paraxialEflMm(const LensSystem& lens, const SpectralIndices& indices) {
 
 double paraxialImageZMm(const LensSystem& lens, const SpectralIndices& indices,
                         double objectDistanceMm) {
-    const double z0 = lens.surface(0).vertexZMm;
-    const ParaxialRay start = std::isinf(objectDistanceMm)
-                                  ? ParaxialRay{z0, 1.0, 0.0, indices.n[0]}
-                                  : ParaxialRay{z0 - objectDistanceMm, 0.0, 1.0, indices.n[0]};
-    const ParaxialRay out = paraxialForward(lens, indices, start, 0, lastSurface(lens));
+    const ParaxialRay out = paraxialForward(lens, indices, axialObjectRay(lens, indices, objectDistanceMm), 0,
+                                            lastSurface(lens));
     return out.zMm - out.y / out.u;
 }
 
