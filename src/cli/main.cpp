@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "GhostCommands.h"
 #include "LensCommands.h"
 #include "flare/Error.h"
 
@@ -12,6 +13,7 @@ int main(int argc, char** argv) {
     CLI::App app{"flare: physically based lens flare simulation"};
     app.require_subcommand(1);
     flare::cli::addLensCommands(app);
+    flare::cli::addGhostCommands(app);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

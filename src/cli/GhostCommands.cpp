@@ -1,0 +1,148 @@
+#include "GhostCommands.h"
+
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "flare/GhostAnalysis.h"
+#include "flare/LensFile.h"
+#include "flare/LensSystem.h"
+
+namespace flare::cli {
+
+namespace {
+
+struct GhostOptions {
+    std::string input;
+    std::string zoom;
+    std::optional<double> focusMm;
+    std::optional<double> fNumber;
+    std::vector<double> fieldDeg{0.0, 0.0};
+    int order = 2;
+    double wavelengthNm = 550.0;
+    bool all = false;
+    bool json = false;
+    bool csv = false;
+    bool noSensorGhosts = false;
+};
+
+nlohmann::json optionalNumber(const std::optional<double>& v) {
+    return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
+}
+
+nlohmann::json ghostJson(const GhostEstimate& g) {
+    nlohmann::json j;
+    j["surfaces"] = g.path.surfaceNumbers();
+    j["label"] = g.path.label();
+    j["ghost_efl_mm"] = optionalNumber(g.paraxial.eflMm);
+    j["ghost_focus_mm"] = optionalNumber(g.paraxial.focusFromSensorMm);
+    j["internal_focus"] = g.paraxial.internalFocus;
+    j["marginal_heights_mm"] = g.paraxial.marginalHeightsMm;
+    j["power_fraction"] = g.powerFraction;
+    j["footprint_mm"] = {{"x_min", g.footprintMinMm.x}, {"y_min", g.footprintMinMm.y},
+                         {"x_max", g.footprintMaxMm.x}, {"y_max", g.footprintMaxMm.y}};
+    j["peak_irradiance_ratio"] = g.peakIrradianceRatio;
+    j["live_pupil_cells"] = g.pupil.liveCount();
+    j["pruned"] = g.pruned;
+    return j;
+}
+
+std::string surfacesText(const GhostEstimate& g) {
+    std::string text;
+    for (int s : g.path.surfaceNumbers()) text += (text.empty() ? "" : "-") + std::to_string(s);
+    return text;
+}
+
+void run(const GhostOptions& o) {
+    const LensSystem lens = LensSystem::build(loadLens(o.input), LensState{o.zoom, o.focusMm, o.fNumber});
+    GhostAnalysisOptions options;
+    options.order = o.order;
+    options.wavelengthNm = o.wavelengthNm;
+    options.includeSensor = !o.noSensorGhosts;
+    const double fieldX = o.fieldDeg.at(0), fieldY = o.fieldDeg.size() > 1 ? o.fieldDeg[1] : 0.0;
+    const GhostReport report = analyseGhosts(lens, directionFromFieldDeg(fieldX, fieldY), options);
+
+    std::vector<const GhostEstimate*> shown;
+    for (const GhostEstimate& g : report.ghosts)
+        if (o.all || !g.pruned) shown.push_back(&g);
+
+    if (o.json) {
+        nlohmann::json j;
+        j["lens"] = lens.name();
+        j["field_deg"] = {fieldX, fieldY};
+        j["wavelength_nm"] = o.wavelengthNm;
+        j["order"] = o.order;
+        j["surfaces"] = lens.surfaceCount();
+        j["sensor_surface_number"] = lens.surfaceCount() + 1;
+        j["enumerated"] = report.ghosts.size();
+        j["direct_power_fraction"] = report.direct.powerFraction;
+        j["total_ghost_power_fraction"] = report.totalGhostPowerFraction;
+        j["pruned_count"] = report.prunedCount;
+        j["pruned_power_fraction"] = report.prunedPowerFraction;
+        j["ghosts"] = nlohmann::json::array();
+        for (const GhostEstimate* g : shown) j["ghosts"].push_back(ghostJson(*g));
+        std::cout << j.dump(2) << "\n";
+        return;
+    }
+    if (o.csv) {
+        std::printf("surfaces,label,ghost_efl_mm,ghost_focus_mm,internal_focus,power_fraction,peak_irradiance_ratio,"
+                    "x_min_mm,y_min_mm,x_max_mm,y_max_mm,pruned\n");
+        for (const GhostEstimate* g : shown) {
+            std::printf("%s,%s,%s,%s,%d,%.6e,%.6e,%.4f,%.4f,%.4f,%.4f,%d\n", surfacesText(*g).c_str(),
+                        g->path.label().c_str(),
+                        g->paraxial.eflMm ? std::to_string(*g->paraxial.eflMm).c_str() : "",
+                        g->paraxial.focusFromSensorMm ? std::to_string(*g->paraxial.focusFromSensorMm).c_str() : "",
+                        g->paraxial.internalFocus ? 1 : 0, g->powerFraction, g->peakIrradianceRatio,
+                        g->footprintMinMm.x, g->footprintMinMm.y, g->footprintMaxMm.x, g->footprintMaxMm.y,
+                        g->pruned ? 1 : 0);
+        }
+        return;
+    }
+    std::printf("%s: %zu ghosts of order %d (surface %d is the sensor), field (%.2f, %.2f) deg, %.1f nm\n",
+                lens.name().c_str(), report.ghosts.size(), o.order, lens.surfaceCount() + 1, fieldX, fieldY,
+                o.wavelengthNm);
+    std::printf("direct image: %.4e of the entering power; all ghosts: %.4e; pruned: %d ghosts, %.3e\n\n",
+                report.direct.powerFraction, report.totalGhostPowerFraction, report.prunedCount,
+                report.prunedPowerFraction);
+    std::printf("  %-12s %12s %14s %12s %12s  %s\n", "surfaces", "ghost EFL", "focus (mm)", "power", "peak E/E0",
+                "footprint x,y (mm)");
+    for (const GhostEstimate* g : shown) {
+        char efl[32] = "afocal", focus[32] = "-";
+        if (g->paraxial.eflMm) std::snprintf(efl, sizeof efl, "%.2f", *g->paraxial.eflMm);
+        if (g->paraxial.focusFromSensorMm) std::snprintf(focus, sizeof focus, "%.2f%s", *g->paraxial.focusFromSensorMm,
+                                                         g->paraxial.internalFocus ? "*" : "");
+        std::printf("  %-12s %12s %14s %12.3e %12.3e  [%.1f, %.1f] x [%.1f, %.1f]%s\n", surfacesText(*g).c_str(), efl,
+                    focus, g->powerFraction, g->peakIrradianceRatio, g->footprintMinMm.x, g->footprintMaxMm.x,
+                    g->footprintMinMm.y, g->footprintMaxMm.y, g->pruned ? "  (pruned)" : "");
+    }
+    std::printf("\n* the ghost comes to a focus inside the lens\n");
+}
+
+}  // namespace
+
+void addGhostCommands(CLI::App& app) {
+    auto o = std::make_shared<GhostOptions>();
+    CLI::App* ghosts = app.add_subcommand("ghosts", "enumerate and analyse the ghost paths of a lens for one light");
+    ghosts->add_option("LENS", o->input, "lens file or shipped lens name")->required();
+    ghosts->add_option("--zoom", o->zoom, "zoom position name, or a focal length in mm");
+    ghosts->add_option("--focus", o->focusMm, "object distance in mm")->check(CLI::PositiveNumber);
+    ghosts->add_option("--f-number", o->fNumber, "stop the iris down to this f-number")->check(CLI::PositiveNumber);
+    ghosts->add_option("--field-deg", o->fieldDeg, "light's field angle X[,Y] in degrees")
+        ->delimiter(',')
+        ->expected(1, 2)
+        ->check(CLI::Range(-89.0, 89.0));
+    ghosts->add_option("--order", o->order, "number of reflections: 2 or 4")->check(CLI::IsMember({2, 4}));
+    ghosts->add_option("--wavelength", o->wavelengthNm, "wavelength in nm (default 550)")->check(CLI::Range(300.0, 2000.0));
+    ghosts->add_flag("--all", o->all, "list every enumerated path, pruned or not");
+    ghosts->add_flag("--no-sensor-ghosts", o->noSensorGhosts, "leave out paths reflecting at the sensor");
+    auto* json = ghosts->add_flag("--json", o->json, "print JSON");
+    ghosts->add_flag("--csv", o->csv, "print CSV")->excludes(json);
+    ghosts->callback([o] { run(*o); });
+}
+
+}  // namespace flare::cli

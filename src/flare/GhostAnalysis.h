@@ -1,0 +1,71 @@
+// Real-ray estimate of what each ghost path puts on the sensor for one directional light: power
+// fraction, footprint, peak irradiance and the region of the pupil grid whose rays survive the
+// path (which later guides photon emission). Then pruning by power.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <glm/vec2.hpp>
+
+#include "flare/Ghosts.h"
+#include "flare/PupilGrid.h"
+
+namespace flare {
+
+// Cells of the pupil grid whose rays survive a path and land on the sensor.
+struct LivePupilRegion {
+    double aMinMm = 0.0, bMinMm = 0.0;  // corner of the region on the pupil plane
+    double cellMm = 0.0;                // square cells
+    int cellsA = 0, cellsB = 0;
+    std::vector<std::uint8_t> live;     // cellsA × cellsB, row-major in b
+
+    bool empty() const { return cellsA == 0 || cellsB == 0; }
+    int liveCount() const;
+};
+
+struct GhostEstimate {
+    GhostPath path;  // empty: the direct (no-reflection) image
+    GhostParaxial paraxial;
+    double powerFraction = 0.0;  // share of the power entering the front aperture that lands on the sensor
+    glm::dvec2 footprintMinMm{0.0}, footprintMaxMm{0.0};  // bounding box on the sensor
+    double peakIrradianceRatio = 0.0;  // peak sensor irradiance / incident irradiance
+    LivePupilRegion pupil;
+    bool pruned = false;
+};
+
+struct GhostAnalysisOptions {
+    int order = 2;
+    bool includeSensor = true;
+    double wavelengthNm = 550.0;
+    int coarseCells = 32;   // first pass over the whole grid, to find the live region
+    int fineCells = 64;     // second pass across the live region's larger side
+    double keepShare = 0.999;           // keep the strongest ghosts carrying this share of ghost power...
+    double relativeThreshold = 1e-5;    // ...and any ghost above this fraction of the strongest
+};
+
+struct GhostReport {
+    PupilGrid grid;
+    double wavelengthNm = 0.0;
+    double enteringAreaMm2 = 0.0;
+    GhostEstimate direct;
+    std::vector<GhostEstimate> ghosts;  // sorted by power, strongest first
+    double totalGhostPowerFraction = 0.0;
+    int prunedCount = 0;
+    double prunedPowerFraction = 0.0;
+};
+
+// Estimates one path (parallel over nothing: callers parallelise over paths).
+GhostEstimate estimatePath(const LensSystem& lens, const SpectralIndices& indices, const PupilGrid& grid,
+                           double enteringAreaMm2, const GhostPath& path, const GhostAnalysisOptions& options);
+
+// Enumerates, estimates (in parallel over paths, deterministically) and prunes.
+GhostReport analyseGhosts(const LensSystem& lens, const glm::dvec3& lightDirection,
+                          const GhostAnalysisOptions& options);
+
+// Marks ghosts as pruned: the kept set is the strongest ghosts whose cumulative power reaches
+// keepShare of the total, plus every ghost above relativeThreshold × the strongest. Expects
+// `ghosts` sorted by power.
+void pruneGhosts(std::vector<GhostEstimate>& ghosts, double keepShare, double relativeThreshold);
+
+}  // namespace flare

@@ -1,0 +1,59 @@
+#include "flare/PupilGrid.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <glm/geometric.hpp>
+
+#include "flare/RealRays.h"
+
+namespace flare {
+
+glm::dvec3 directionFromFieldDeg(double fieldXDeg, double fieldYDeg) {
+    const double toRad = std::numbers::pi / 180.0;
+    return glm::normalize(glm::dvec3(-std::tan(fieldXDeg * toRad), -std::tan(fieldYDeg * toRad), 1.0));
+}
+
+PupilGrid PupilGrid::forDirection(const LensSystem& lens, const glm::dvec3& direction) {
+    PupilGrid grid;
+    grid.direction = glm::normalize(direction);
+    // e1 stays horizontal (⟂ y), so that the grid's axes follow the image's for any light.
+    const glm::dvec3 side = glm::cross(glm::dvec3(0.0, 1.0, 0.0), grid.direction);
+    grid.e1 = glm::length(side) > 1e-12 ? glm::normalize(side) : glm::dvec3(1.0, 0.0, 0.0);
+    grid.e2 = glm::normalize(glm::cross(grid.direction, grid.e1));
+    const Surface& first = lens.surface(0);
+    grid.centreMm = glm::dvec3(0.0, 0.0, first.vertexZMm);
+    // The aperture's points lie within r0 of the axis and within the sag range in z; their
+    // projections lie within r0 + |sag|·sinθ of the centre.
+    double maxSag = 0.0;
+    for (int k = 0; k <= 32; ++k) {
+        const double r = first.semiApertureMm * k / 32.0;
+        double sag = 0.0;
+        if (first.sagMm(r * r, &sag)) maxSag = std::max(maxSag, std::abs(sag));
+    }
+    const double sinTheta = std::sqrt(std::max(0.0, 1.0 - grid.direction.z * grid.direction.z));
+    grid.halfSizeMm = 1.01 * (first.semiApertureMm + maxSag * sinTheta) + 1e-3;
+    // Start every ray in front of the lens's first point.
+    const double zStart = objectSpaceStartZMm(lens);
+    grid.backOffMm = (first.vertexZMm - zStart + grid.halfSizeMm * sinTheta) / std::max(grid.direction.z, 1e-3) + 1.0;
+    return grid;
+}
+
+double PupilGrid::enteringAreaMm2(const LensSystem& lens, int cells) const {
+    const Surface& first = lens.surface(0);
+    const double cell = 2.0 * halfSizeMm / cells;
+    long hits = 0;
+    for (int j = 0; j < cells; ++j) {
+        for (int i = 0; i < cells; ++i) {
+            const Ray r = ray(-halfSizeMm + (i + 0.5) * cell, -halfSizeMm + (j + 0.5) * cell);
+            const SurfaceHit hit = intersect(first, r);
+            if (hit.status != HitStatus::Hit) continue;
+            const glm::dvec3 p = r.at(hit.tMm);
+            hits += p.x * p.x + p.y * p.y <= first.semiApertureMm * first.semiApertureMm;
+        }
+    }
+    return static_cast<double>(hits) * cell * cell;
+}
+
+}  // namespace flare

@@ -1,0 +1,189 @@
+// Ghost enumeration and analysis: counts, paraxial ghost focus against an independent
+// ray-transfer-matrix computation, exact throughput ratios, pruning.
+#include <cmath>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "TestUtil.h"
+#include "flare/GhostAnalysis.h"
+#include "flare/Ghosts.h"
+#include "flare/LensFile.h"
+#include "flare/Paraxial.h"
+
+namespace flare {
+namespace {
+
+using test::loadLens;
+
+TEST(Ghosts, TwoReflectionCountIsNChooseTwoForEveryShippedLens) {
+    for (const char* file : test::kShippedLenses) {
+        const LensSystem lens = loadLens(file);
+        const int n = static_cast<int>(reflectingSurfaces(lens, true).size());
+        EXPECT_EQ(n, static_cast<int>(reflectingSurfaces(lens, false).size()) + 1);
+        EXPECT_EQ(enumerateGhosts(lens, 2, true).size(), static_cast<size_t>(n * (n - 1) / 2)) << file;
+        EXPECT_EQ(enumerateGhosts(lens, 2, false).size(), static_cast<size_t>((n - 1) * (n - 2) / 2)) << file;
+    }
+    // The zoom: 27 interfaces and the sensor.
+    EXPECT_EQ(enumerateGhosts(loadLens("lenses/zoom-24-70mm.lens"), 2, false).size(), 351u);
+}
+
+TEST(Ghosts, FourReflectionPathsMatchABruteForceCount) {
+    const LensSystem lens = loadLens("lenses/double-gauss-50mm.lens");
+    const std::vector<int> s = reflectingSurfaces(lens, true);
+    size_t count = 0;
+    for (int a : s)
+        for (int b : s)
+            for (int c : s)
+                for (int d : s) count += b < a && c > b && d < c;
+    const std::vector<GhostPath> paths = enumerateGhosts(lens, 4, true);
+    EXPECT_EQ(paths.size(), count);
+    for (const GhostPath& p : paths) {
+        ASSERT_EQ(p.reflections.size(), 4u);
+        EXPECT_LT(p.reflections[1], p.reflections[0]);
+        EXPECT_GT(p.reflections[2], p.reflections[1]);
+        EXPECT_LT(p.reflections[3], p.reflections[2]);
+    }
+}
+
+TEST(Ghosts, LabelsUseOneBasedSurfaceNumbers) {
+    const GhostPath p{{6, 2}};
+    EXPECT_EQ(p.label(), "ghost_07_03");
+    EXPECT_EQ(p.surfaceNumbers(), (std::vector<int>{7, 3}));
+}
+
+// Independent first-order model in the convention of optical-design programs: positions along z
+// are signed, a reflection is a refraction into index −n, so after an odd number of reflections
+// thicknesses and indices are both negative. Matrices act on (y, n·u) with u = dy/dz.
+struct Matrix {
+    double a, b, c, d;
+    Matrix operator*(const Matrix& o) const {
+        return {a * o.a + b * o.c, a * o.b + b * o.d, c * o.a + d * o.c, c * o.b + d * o.d};
+    }
+};
+
+struct MatrixGhost {
+    double efl, focusFromSensor;
+};
+
+MatrixGhost matrixGhost(const LensSystem& lens, const SpectralIndices& idx, const GhostPath& path) {
+    const int sensor = lens.surfaceCount();
+    Matrix m{1, 0, 0, 1};
+    double z = lens.surface(0).vertexZMm;
+    double n = idx.n[0];  // signed
+    int position = -1, direction = 1;
+    size_t next = 0;
+    while (true) {
+        const int k = position + direction;
+        const double zk = k == sensor ? lens.sensorZMm() : lens.surface(k).vertexZMm;
+        m = Matrix{1.0, (zk - z) / n, 0.0, 1.0} * m;  // signed thickness over signed index
+        z = zk;
+        position = k;
+        const bool reflect = next < path.reflections.size() && path.reflections[next] == k;
+        if (k == sensor && !reflect) break;
+        const double c = k == sensor ? 0.0 : lens.surface(k).curvature();
+        double nAfter = 0.0;
+        if (reflect) {
+            nAfter = -n;
+            direction = -direction;
+            ++next;
+        } else {
+            nAfter = (direction > 0 ? idx.n[k + 1] : idx.n[k]) * (n < 0 ? -1.0 : 1.0);
+        }
+        m = Matrix{1.0, 0.0, -(nAfter - n) * c, 1.0} * m;
+        n = nAfter;
+    }
+    // Input (y, nu) = (1, 0) at the first vertex; output at the sensor plane: y = a, n·u = c.
+    return {-1.0 / m.c, -m.a * n / m.c};
+}
+
+TEST(Ghosts, ParaxialGhostFocusAgreesWithRayTransferMatrices) {
+    for (const char* file : {"lenses/double-gauss-50mm.lens", "lenses/telephoto-180mm.lens", "lenses/zoom-24-70mm.lens"}) {
+        const LensSystem lens = loadLens(file);
+        const SpectralIndices idx = lens.indicesAt(550.0);
+        const std::vector<GhostPath> paths = enumerateGhosts(lens, 2, true);
+        int compared = 0;
+        for (size_t i = 0; i < paths.size(); i += 3) {  // a spread of ghosts, sensor ghosts included
+            const GhostParaxial g = analyseGhostParaxial(lens, idx, paths[i]);
+            const MatrixGhost m = matrixGhost(lens, idx, paths[i]);
+            ASSERT_TRUE(g.eflMm && g.focusFromSensorMm) << file << " " << paths[i].label();
+            const double scale = std::abs(m.efl) + std::abs(m.focusFromSensor) + 1.0;
+            EXPECT_NEAR(*g.eflMm, m.efl, 1e-9 * scale) << file << " " << paths[i].label();
+            EXPECT_NEAR(*g.focusFromSensorMm, m.focusFromSensor, 1e-9 * scale) << file << " " << paths[i].label();
+            ++compared;
+        }
+        EXPECT_GE(compared, 10) << file;
+    }
+}
+
+TEST(Ghosts, NoReflectionPathIsTheLensItself) {
+    const LensSystem lens = loadLens("lenses/double-gauss-50mm.lens");
+    const SpectralIndices idx = lens.indicesAt(550.0);
+    const GhostParaxial g = analyseGhostParaxial(lens, idx, GhostPath{});
+    const ParaxialData p = analyseParaxial(lens, 550.0);
+    EXPECT_NEAR(*g.eflMm, p.eflMm, 1e-9 * p.eflMm);
+    // The sensor was focused at the d line; at 550 nm the focus shifts only by the chromatic
+    // focal shift, a small fraction of a millimetre for this lens.
+    EXPECT_NEAR(*g.focusFromSensorMm, p.bflMm - (lens.sensorZMm() - lens.surface(lens.surfaceCount() - 1).vertexZMm), 1e-9);
+    EXPECT_LT(std::abs(*g.focusFromSensorMm), 0.2);
+    EXPECT_FALSE(g.internalFocus);
+}
+
+// A plate at normal incidence: the ghost's rays are the direct rays shifted by zero, so the live
+// regions coincide and ghost/direct = R² exactly.
+TEST(GhostAnalysis, PlateGhostToDirectRatioIsReflectanceSquared) {
+    const std::string text = R"(name plate
+focal_length_mm 1
+sensor width_mm=60 height_mm=60 reflectance=0
+surfaces
+ stop  1    air     10
+ inf   5    n=1.5   12
+ inf   10   air     12
+)";
+    const LensSystem lens = LensSystem::build(parseLensText(text, "plate.lens"));
+    GhostAnalysisOptions options;
+    const GhostReport report = analyseGhosts(lens, {0.0, 0.0, 1.0}, options);
+    ASSERT_EQ(report.ghosts.size(), 3u);  // 3-2, sensor-3, sensor-2
+    const GhostEstimate& plate = report.ghosts.front();
+    EXPECT_EQ(plate.path.reflections, (std::vector<int>{2, 1}));
+    EXPECT_NEAR(plate.powerFraction / report.direct.powerFraction, 0.04 * 0.04, 1e-12);
+    // Zero sensor reflectance: the sensor ghosts carry nothing and are pruned.
+    EXPECT_EQ(report.ghosts[1].powerFraction, 0.0);
+    EXPECT_TRUE(report.ghosts[1].pruned);
+    // The stop is the front aperture, so all entering light crosses the plate: (1 − R)². The live
+    // region (64 cells across) and the entering area (512 cells across) are counted on grids
+    // whose boundary error is at most ~2·cell/radius = 3 %; midpoint errors mostly cancel.
+    EXPECT_NEAR(report.direct.powerFraction / (0.96 * 0.96), 1.0, 0.03);
+}
+
+TEST(GhostAnalysis, PruningKeepsTheShareAndTheThreshold) {
+    std::vector<GhostEstimate> ghosts(5);
+    const double powers[] = {0.5, 0.3, 0.15, 0.0499, 0.0001};
+    for (int i = 0; i < 5; ++i) ghosts[i].powerFraction = powers[i];
+    pruneGhosts(ghosts, 0.9, 0.05);  // share: the first three reach 0.95 ≥ 0.9; threshold 0.025
+    EXPECT_FALSE(ghosts[0].pruned);
+    EXPECT_FALSE(ghosts[1].pruned);
+    EXPECT_FALSE(ghosts[2].pruned);
+    EXPECT_FALSE(ghosts[3].pruned);  // 0.0499 > 0.05 × 0.5
+    EXPECT_TRUE(ghosts[4].pruned);
+}
+
+TEST(GhostAnalysis, DoubleGaussReportIsDeterministicAndConsistent) {
+    const LensSystem lens = loadLens("lenses/double-gauss-50mm.lens");
+    GhostAnalysisOptions options;
+    const GhostReport a = analyseGhosts(lens, directionFromFieldDeg(10.0, 5.0), options);
+    const GhostReport b = analyseGhosts(lens, directionFromFieldDeg(10.0, 5.0), options);
+    ASSERT_EQ(a.ghosts.size(), 55u);
+    for (size_t i = 0; i < a.ghosts.size(); ++i) {
+        EXPECT_EQ(a.ghosts[i].path, b.ghosts[i].path);
+        EXPECT_EQ(a.ghosts[i].powerFraction, b.ghosts[i].powerFraction);
+        if (i > 0) EXPECT_LE(a.ghosts[i].powerFraction, a.ghosts[i - 1].powerFraction);
+    }
+    // With single-layer MgF2 (about 1.3 % per surface), no ghost can carry more than a few 1e-4.
+    EXPECT_GT(a.ghosts.front().powerFraction, 1e-6);
+    EXPECT_LT(a.ghosts.front().powerFraction, 1e-3);
+    EXPECT_GT(a.direct.powerFraction, 0.3);
+}
+
+}  // namespace
+}  // namespace flare
