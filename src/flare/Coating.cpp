@@ -1,13 +1,12 @@
 #include "flare/Coating.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
-#include <complex>
 #include <numbers>
+#include <utility>
 
 namespace flare {
-
-using Complex = std::complex<double>;
 
 Coating Coating::quarterWave(std::string name, double index, double designWavelengthNm) {
     return Coating{std::move(name), {{index, designWavelengthNm / (4.0 * index)}}};
@@ -17,45 +16,25 @@ Coating Coating::magnesiumFluoride() { return quarterWave("mgf2", 1.38, 550.0); 
 
 namespace {
 
-// cosθ in a medium of index n given the invariant n0·sinθ0 (complex beyond the critical angle,
-// on the branch whose wave decays into the medium).
-Complex cosineIn(double n, double invariant) {
-    const double sin2 = (invariant / n) * (invariant / n);
-    return std::sqrt(Complex(1.0 - sin2, 0.0));
-}
+// A characteristic matrix of lossless, propagating layers has the form [[a, i b], [i c, d]] with
+// real a, b, c, d, and products keep that form, so the stack needs only real arithmetic.
+struct LayerMatrix {
+    double a = 1.0, b = 0.0, c = 0.0, d = 1.0;
 
-struct Polarised {
-    double r, t;
+    LayerMatrix then(const LayerMatrix& l) const {
+        return {a * l.a - b * l.c, a * l.b + b * l.d, c * l.a + d * l.c, -c * l.b + d * l.d};
+    }
 };
 
-// Characteristic matrix product for one polarisation; `tilted` maps (n, cosθ) to the tilted
-// optical admittance (n cosθ for s, n / cosθ for p).
-template <typename Admittance>
-Polarised stackResponse(const std::vector<ThinFilmLayer>& layers, bool reversed, double n0,
-                        double nSub, double invariant, double wavelengthNm, Admittance tilted) {
-    Complex m00(1.0), m01(0.0), m10(0.0), m11(1.0);
-    const size_t count = layers.size();
-    for (size_t i = 0; i < count; ++i) {
-        const ThinFilmLayer& layer = layers[reversed ? count - 1 - i : i];
-        const Complex cosT = cosineIn(layer.index, invariant);
-        const Complex eta = tilted(layer.index, cosT);
-        const Complex delta = 2.0 * std::numbers::pi * layer.index * layer.thicknessNm * cosT /
-                              wavelengthNm;
-        const Complex c = std::cos(delta), s = std::sin(delta);
-        const Complex j(0.0, 1.0);
-        const Complex a00 = c, a01 = j * s / eta, a10 = j * eta * s, a11 = c;
-        const Complex n00 = m00 * a00 + m01 * a10, n01 = m00 * a01 + m01 * a11;
-        const Complex n10 = m10 * a00 + m11 * a10, n11 = m10 * a01 + m11 * a11;
-        m00 = n00; m01 = n01; m10 = n10; m11 = n11;
-    }
-    const Complex eta0 = tilted(n0, cosineIn(n0, invariant));
-    const Complex etaSub = tilted(nSub, cosineIn(nSub, invariant));
-    const Complex b = m00 + m01 * etaSub;
-    const Complex c = m10 + m11 * etaSub;
-    const Complex denom = eta0 * b + c;
-    const Complex r = (eta0 * b - c) / denom;
-    const double t = 4.0 * eta0.real() * etaSub.real() / std::norm(denom);
-    return {std::norm(r), std::max(0.0, t)};
+// Reflectance and transmittance of the stack for one polarisation, with tilted admittances η0 of
+// the incident medium and ηs of the substrate: B = a + i b ηs, C = i c + d ηs,
+// r = (η0 B − C)/(η0 B + C), T = 4 η0 ηs / |η0 B + C|².
+void respond(const LayerMatrix& m, double eta0, double etaSub, double* r, double* t) {
+    const double numRe = eta0 * m.a - m.d * etaSub, numIm = eta0 * m.b * etaSub - m.c;
+    const double denRe = eta0 * m.a + m.d * etaSub, denIm = eta0 * m.b * etaSub + m.c;
+    const double den2 = denRe * denRe + denIm * denIm;
+    *r = (numRe * numRe + numIm * numIm) / den2;
+    *t = 4.0 * eta0 * etaSub / den2;
 }
 
 }  // namespace
@@ -69,7 +48,7 @@ FresnelTerms thinFilmResponse(const Coating& coating, double cosThetaI, double n
     const double n0 = fromAirSide ? nAir : nGlass;
     const double nSub = fromAirSide ? nGlass : nAir;
     cosThetaI = std::clamp(cosThetaI, 0.0, 1.0);
-    const double invariant = n0 * std::sqrt(std::max(0.0, 1.0 - cosThetaI * cosThetaI));
+    const double invariant = n0 * std::sqrt(std::max(0.0, 1.0 - cosThetaI * cosThetaI));  // n·sinθ
 
     FresnelTerms terms;
     if (invariant >= nSub) {  // total internal reflection at the stack's far side
@@ -79,16 +58,28 @@ FresnelTerms thinFilmResponse(const Coating& coating, double cosThetaI, double n
         terms.totalInternalReflection = true;
         return terms;
     }
-    const bool reversed = !fromAirSide;
-    const Polarised s = stackResponse(coating.layers, reversed, n0, nSub, invariant, wavelengthNm,
-                                      [](double n, Complex cosT) { return n * cosT; });
-    const Polarised p = stackResponse(coating.layers, reversed, n0, nSub, invariant, wavelengthNm,
-                                      [](double n, Complex cosT) { return n / cosT; });
-    terms.rs = s.r;
-    terms.ts = s.t;
-    terms.rp = p.r;
-    terms.tp = p.t;
-    terms.cosThetaT = std::sqrt(std::max(0.0, 1.0 - (invariant / nSub) * (invariant / nSub)));
+    // Below the outer critical angle every layer propagates: from air the invariant is below 1 and
+    // layer indices are at least 1 (the parser enforces it); from glass anything above nAir = 1 has
+    // already been reflected totally. So each layer has a real angle and phase δ, and δ is shared
+    // by s and p: one sincos per layer.
+    LayerMatrix s, p;
+    const size_t count = coating.layers.size();
+    for (size_t i = 0; i < count; ++i) {
+        const ThinFilmLayer& layer = coating.layers[fromAirSide ? i : count - 1 - i];
+        const double sin2 = (invariant / layer.index) * (invariant / layer.index);
+        assert(sin2 < 1.0 && "coating layers have indices of at least 1");
+        const double cosT = std::sqrt(std::max(0.0, 1.0 - sin2));
+        const double delta = 2.0 * std::numbers::pi * layer.index * layer.thicknessNm * cosT / wavelengthNm;
+        const double cosDelta = std::cos(delta), sinDelta = std::sin(delta);
+        const double etaS = layer.index * cosT, etaP = layer.index / cosT;
+        s = s.then({cosDelta, sinDelta / etaS, etaS * sinDelta, cosDelta});
+        p = p.then({cosDelta, sinDelta / etaP, etaP * sinDelta, cosDelta});
+    }
+    const double cos0 = std::sqrt(std::max(0.0, 1.0 - (invariant / n0) * (invariant / n0)));
+    const double cosSub = std::sqrt(1.0 - (invariant / nSub) * (invariant / nSub));
+    respond(s, n0 * cos0, nSub * cosSub, &terms.rs, &terms.ts);
+    respond(p, n0 / cos0, nSub / cosSub, &terms.rp, &terms.tp);
+    terms.cosThetaT = cosSub;
     return terms;
 }
 

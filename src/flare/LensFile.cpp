@@ -185,6 +185,13 @@ void validate(const Parser& parser, LensPrescription& p, int lastLine) {
     }
 }
 
+// Dielectric coating layers have indices of at least 1 (the thin-film code relies on it).
+double layerIndex(const Parser& parser, int line, std::string_view token) {
+    const double index = parser.positive(line, token, "coating layer index");
+    if (index < 1.0) parser.error(line, "coating layer index must be at least 1, got " + std::string(token));
+    return index;
+}
+
 void parseCoating(const Parser& parser, LensPrescription& p, int line,
                   const std::vector<std::string_view>& tokens) {
     if (tokens.size() < 4)
@@ -198,7 +205,7 @@ void parseCoating(const Parser& parser, LensPrescription& p, int line,
         std::optional<double> index, quarterWaveNm, thicknessNm;
         for (size_t i = 3; i < tokens.size(); ++i) {
             const auto [key, value] = parser.keyValue(line, tokens[i]);
-            if (key == "n") index = parser.positive(line, value, "coating index");
+            if (key == "n") index = layerIndex(parser, line, value);
             else if (key == "quarter_wave_nm") quarterWaveNm = parser.positive(line, value, "quarter_wave_nm");
             else if (key == "thickness_nm") thicknessNm = parser.positive(line, value, "thickness_nm");
             else parser.error(line, "unknown coating option '" + key + "'");
@@ -212,7 +219,7 @@ void parseCoating(const Parser& parser, LensPrescription& p, int line,
             const size_t colon = tokens[i].find(':');
             if (colon == std::string_view::npos)
                 parser.error(line, "stack layer '" + std::string(tokens[i]) + "' must be index:thickness_nm");
-            coating.layers.push_back({parser.positive(line, tokens[i].substr(0, colon), "layer index"),
+            coating.layers.push_back({layerIndex(parser, line, tokens[i].substr(0, colon)),
                                       parser.positive(line, tokens[i].substr(colon + 1), "layer thickness")});
         }
     } else {

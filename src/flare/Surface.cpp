@@ -40,7 +40,11 @@ double Surface::sagSlope(double r2) const {
 }
 
 glm::dvec3 Surface::normalAt(const glm::dvec3& p) const {
-    if (isPlane()) return {0.0, 0.0, 1.0};
+    const bool polynomial = hasPolynomial();
+    if (radiusMm == 0.0 && !polynomial) return {0.0, 0.0, 1.0};
+    // A sphere's normal points from the surface to its centre (0, 0, vertex + R); dividing by R
+    // orients it towards +z for either sign of R.
+    if (conic == 0.0 && !polynomial) return (glm::dvec3(0.0, 0.0, vertexZMm + radiusMm) - p) / radiusMm;
     const double s = sagSlope(p.x * p.x + p.y * p.y);
     return glm::normalize(glm::dvec3(-2.0 * s * p.x, -2.0 * s * p.y, 1.0));
 }

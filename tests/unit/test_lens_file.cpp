@@ -146,6 +146,7 @@ TEST(LensFileErrors, OtherMistakes) {
     expectError(lens("40 5 N-BK7 10 coating=gold\nstop 2 air 8\n-60 auto air 10\n"), 4, "unknown coating");
     expectError(lens("40 5 1.5/abc 10\nstop 2 air 8\n-60 auto air 10\n"), 4, "not a number");
     expectError(std::string(kHeader) + "bogus 3\nsurfaces\n", 3, "unknown header keyword");
+    expectError(std::string(kHeader) + "coating c stack 0.9:100\nsurfaces\n", 3, "at least 1");
     expectError(std::string(kHeader) + "iris blades=2\nsurfaces\n", 3, "iris blades");
     const InputError noTable = parseError(std::string(kHeader));
     EXPECT_NE(noTable.problem().find("surfaces"), std::string::npos);

@@ -1,0 +1,49 @@
+// Image output: multi-layer 32-bit float OpenEXR for the result (and reading it back for tests and
+// image comparison), and a tone-mapped 8-bit sRGB PNG for a quick look. Both writers are
+// all-or-nothing: they write `path + ".partial"` and rename it over `path` only when complete, so
+// a failed or interrupted render never leaves a truncated image under the final name.
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+namespace flare {
+
+// One RGB image: interleaved linear Rec.709 RGB (sRGB primaries, D65 white), row-major, first row
+// at the top. Name "" is the main image; other names become EXR layers ("ghosts" → ghosts.R, ...).
+struct ImageLayer {
+    std::string name;
+    int width = 0, height = 0;
+    std::vector<float> rgb;
+};
+
+// Writes the layers (all of one size) as a ZIP-compressed 32-bit float EXR with the standard
+// `chromaticities` attribute (Rec.709 primaries, D65 white) and each metadata pair as a string
+// attribute. Throws std::logic_error for malformed input (mismatched sizes, duplicate layer
+// names, a metadata key that is a standard attribute, any NaN or infinity: programming errors)
+// and std::runtime_error naming `path` when the file cannot be written; nothing is left behind.
+void writeExr(const std::string& path, const std::vector<ImageLayer>& layers,
+              const std::vector<std::pair<std::string, std::string>>& metadata);
+
+// Every layer of an EXR that has R, G and B channels, the main one (if any) first, then the others
+// by name. Half or float channels are read as float. A missing, unreadable or corrupt file throws
+// InputError(path, 0, problem).
+std::vector<ImageLayer> readExr(const std::string& path);
+
+// Display encoding for the PNG preview of a linear Rec.709 value: multiply by `exposure`, apply
+// the Reinhard curve x/(1 + x) to the luminance while keeping the chromaticity (so bright cores
+// roll off smoothly instead of clipping to a hue-shifted plateau), pull colours that still leave
+// [0, 1]³ toward the grey of the same luminance (spectral ghosts are often out of gamut), then the
+// sRGB OETF. Returns non-linear sRGB in [0, 1]³.
+glm::dvec3 displayEncode(const glm::dvec3& linearRgb, double exposure);
+
+// 8-bit sRGB PNG of displayEncode(pixel, exposure); all-or-nothing like writeExr, same errors.
+void writePng(const std::string& path, const ImageLayer& image, double exposure);
+
+// An exposure for the PNG preview that shows the ghosts. See ImageIO.cpp for the choice.
+double autoExposure(const ImageLayer& image);
+
+}  // namespace flare

@@ -1,0 +1,118 @@
+// The scene file (JSON, docs/scene-format.md): which lens at which zoom/focus/f-stop, the lights,
+// the sensor and the render settings. Plain data: the lens is named here, not loaded, so that
+// the scene can be read, checked and reported on without touching the optics. Every problem in a
+// scene file raises InputError naming the file, the line of the offending value and its key path
+// (e.g. "lights[1].angular_diameter_deg").
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include "flare/LensPrescription.h"
+#include "flare/LensSystem.h"
+
+namespace flare {
+
+// The spectral shape of a light. Only the shape: the light's `power` sets the amount.
+struct SpectrumSpec {
+    enum class Kind { Blackbody, D65, EqualEnergy };
+    Kind kind = Kind::Blackbody;
+    double temperatureK = 5778.0;  // Blackbody only (5778 K: the sun's effective temperature)
+};
+
+struct LightSpec {
+    enum class Type { Directional, Point, Disk };
+    Type type = Type::Directional;
+    std::string name;  // unique within the scene; default "light<index>"
+
+    // Directional: where the light appears in the picture, as field angles (x to the right, y up,
+    // as the photographer sees the scene). Each in [-89.9, 89.9]; outside the frame is allowed
+    // (light from outside the frame still flares). angularDiameterDeg: full apparent diameter
+    // (the sun: 0.53°), 0 for a perfectly collimated source.
+    double fieldXDeg = 0.0, fieldYDeg = 0.0, angularDiameterDeg = 0.0;
+
+    // Point and Disk: position in lens space (mm; z < 0 is in front of the first vertex).
+    // Disk: a Lambertian disk of radius radiusMm whose normal points at the first vertex.
+    glm::dvec3 positionMm{0.0, 0.0, -1000.0};
+    double radiusMm = 0.0;
+
+    SpectrumSpec spectrum;
+    // Directional: irradiance on a plane normal to the rays, W/m². Point: radiant intensity,
+    // W/sr. Disk: radiant intensity along its normal (towards the lens), W/sr. Integrated over
+    // the spectrum; 1 is a convenient relative unit, since every output scales linearly with it.
+    double power = 1.0;
+
+    // Unit direction in which the light's rays travel (z > 0: towards the sensor). Directional:
+    // normalize(−tan fieldX, −tan fieldY, 1) — a light seen up and to the right sends its rays
+    // down and to the left. Point and Disk: from the position towards the first vertex (0, 0, 0).
+    glm::dvec3 travelDirection() const;
+    // Disk: the unit normal of the emitting face (equal to travelDirection(): it faces the lens).
+    glm::dvec3 diskNormal() const { return travelDirection(); }
+};
+
+struct SensorSettings {
+    // Physical size. Both empty: the lens's sensor. One given: the other follows from the
+    // resolution (square pixels); the parser fills it in.
+    std::optional<double> widthMm, heightMm;
+    int widthPx = 1536, heightPx = 1024;
+};
+
+struct RenderSettings {
+    int previewWavelengths = 5;           // wavelengths per preview pass
+    int ghostOrder = 2;                   // reflections per enumerated ghost path: 2 or 4
+    double pruneKeepShare = 0.999;        // keep the strongest ghosts holding this share of power
+    double pruneRelativeThreshold = 1e-5; // ...and drop any ghost below this share of the total
+    std::int64_t photons = 10'000'000;    // photon budget of the photon tracer
+    std::uint64_t seed = 1;
+    int maxBounces = -1;                  // reflections per photon path; −1: unbounded (roulette)
+    bool includeSensorGhosts = true;      // paths that reflect off the sensor
+};
+
+// 1-based lines in the scene file of the values that can only be checked once the lens is loaded
+// (0 when the key is absent), so that those errors still point into the scene.
+struct SceneLines {
+    int lens = 0, zoom = 0, focus = 0, fNumber = 0, sensor = 0, resolution = 0;
+    std::vector<int> lights;  // the line of each light's opening brace
+};
+
+struct Scene {
+    std::string sourceFile;   // as given to loadScene (or the fileName of parseSceneText)
+    std::string description;  // free text, optional
+    // Resolved: a path (relative to the scene file's folder, joined with it) of an existing
+    // file, or the name of a shipped lens; either can be given to loadLens().
+    std::string lens;
+    LensState lensState;
+    std::vector<LightSpec> lights;
+    SensorSettings sensor;
+    RenderSettings render;
+    SceneLines lines;
+};
+
+// Reads and checks a scene file. A missing or unreadable file raises InputError with line 0.
+Scene loadScene(const std::string& path);
+// Parses scene text already in memory. `fileName` is used in error messages; relative lens paths
+// are resolved against `baseDir` ("" = the current directory).
+Scene parseSceneText(std::string_view text, const std::string& fileName, const std::string& baseDir);
+
+// The scene used when none is given: the 50 mm double Gauss at f/4 with a sun 13.5° off axis
+// (docs/examples/default.json holds the same text).
+std::string_view defaultSceneText();
+Scene defaultScene();
+
+// Loads the scene's lens and builds it at the scene's zoom/focus/f-stop. Problems with the lens
+// file itself name the lens file; a zoom, focus or f-number the lens cannot take names the scene
+// file and the line of that key.
+LensSystem buildSceneLens(const Scene& scene);
+
+// The sensor's physical size (width, height) in mm: the scene's, or the lens's when the scene
+// gives none. Raises InputError (scene file, line of the resolution) if the pixels would not be
+// square within 0.1 %.
+glm::dvec2 sensorSizeMm(const Scene& scene, const SensorSpec& lensSensor);
+
+}  // namespace flare

@@ -1,0 +1,244 @@
+// EXR and PNG output: exact float round trips with layer names and metadata, the Rec.709
+// chromaticities attribute, all-or-nothing writing, input errors on bad files, rejection of
+// non-finite values, the PNG header and the documented display encoding, and auto-exposure.
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <unistd.h>
+#include <vector>
+
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputFile.h>
+#include <OpenEXR/ImfStandardAttributes.h>
+#include <OpenEXR/ImfStringAttribute.h>
+#include <glm/geometric.hpp>
+#include <gtest/gtest.h>
+#include <png.h>
+
+#include "flare/Error.h"
+#include "flare/ImageIO.h"
+#include "flare/Spectrum.h"
+
+namespace flare {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
+
+// A fresh directory per test, removed afterwards.
+class ImageIOTest : public ::testing::Test {
+protected:
+    void SetUp() override {
+        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+        dir_ = fs::temp_directory_path() /
+               ("flare_image_io_" + std::to_string(::getpid()) + "_" + info->name());
+        fs::remove_all(dir_);
+        fs::create_directories(dir_);
+    }
+    void TearDown() override { fs::remove_all(dir_); }
+    std::string path(const std::string& name) const { return (dir_ / name).string(); }
+
+    fs::path dir_;
+};
+
+ImageLayer makeLayer(const std::string& name, int width, int height, float seed) {
+    ImageLayer layer{name, width, height, {}};
+    for (int i = 0; i < 3 * width * height; ++i)
+        layer.rgb.push_back(seed * static_cast<float>(i % 17) - 0.37f * static_cast<float>(i) +
+                            (i % 5 == 0 ? 1e30f : 0.0f) + (i % 7 == 0 ? 1e-40f : 0.0f));
+    return layer;
+}
+
+std::vector<unsigned char> fileBytes(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+bool leftovers(const fs::path& dir) { return !fs::is_empty(dir); }
+
+TEST_F(ImageIOTest, ExrRoundTripsLayersExactlyWithNamesAndMetadata) {
+    const std::vector<ImageLayer> layers = {makeLayer("", 7, 5, 0.25f),
+                                            makeLayer("ghosts", 7, 5, -3.5f)};
+    writeExr(path("out.exr"), layers,
+             {{"colorSpace", "linear Rec.709 (sRGB primaries)"}, {"software", "flare test"}});
+    EXPECT_FALSE(fs::exists(path("out.exr.partial")));
+
+    const std::vector<ImageLayer> back = readExr(path("out.exr"));
+    ASSERT_EQ(back.size(), 2u);
+    for (size_t i = 0; i < 2; ++i) {
+        EXPECT_EQ(back[i].name, layers[i].name);
+        EXPECT_EQ(back[i].width, 7);
+        EXPECT_EQ(back[i].height, 5);
+        ASSERT_EQ(back[i].rgb.size(), layers[i].rgb.size());
+        for (size_t k = 0; k < back[i].rgb.size(); ++k)  // 32-bit float and lossless ZIP: exact
+            EXPECT_EQ(back[i].rgb[k], layers[i].rgb[k]) << layers[i].name << " value " << k;
+    }
+    Imf::InputFile file(path("out.exr").c_str());
+    const auto* software = file.header().findTypedAttribute<Imf::StringAttribute>("software");
+    ASSERT_NE(software, nullptr);
+    EXPECT_EQ(software->value(), "flare test");
+    EXPECT_EQ(file.header().compression(), Imf::ZIP_COMPRESSION);
+    EXPECT_NE(file.header().channels().findChannel("ghosts.G"), nullptr);
+    EXPECT_EQ(file.header().channels().findChannel("ghosts.G")->type, Imf::FLOAT);
+}
+
+TEST_F(ImageIOTest, ChromaticitiesAttributeIsRec709WithD65White) {
+    writeExr(path("c.exr"), {makeLayer("", 2, 2, 1.0f)}, {});
+    Imf::InputFile file(path("c.exr").c_str());
+    ASSERT_TRUE(Imf::hasChromaticities(file.header()));
+    const Imf::Chromaticities& c = Imf::chromaticities(file.header());
+    // Stored as 32-bit floats: exactly the float nearest each published value.
+    EXPECT_EQ(c.red, Imath::V2f(0.64f, 0.33f));
+    EXPECT_EQ(c.green, Imath::V2f(0.30f, 0.60f));
+    EXPECT_EQ(c.blue, Imath::V2f(0.15f, 0.06f));
+    EXPECT_EQ(c.white, Imath::V2f(0.3127f, 0.3290f));
+}
+
+TEST_F(ImageIOTest, FailedWritesThrowNamingThePathAndLeaveNothing) {
+    const std::string missingDir = path("no-such-dir/out.exr");
+    try {
+        writeExr(missingDir, {makeLayer("", 2, 2, 1.0f)}, {});
+        FAIL() << "expected an error";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find(missingDir), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(writePng(path("no-such-dir/out.png"), makeLayer("", 2, 2, 1.0f), 1.0),
+                 std::runtime_error);
+    EXPECT_FALSE(leftovers(dir_));
+
+    // The file is complete but cannot take its final name (a non-empty directory is there):
+    // the partial file must not survive.
+    fs::create_directories(path("taken.exr/inside"));
+    EXPECT_THROW(writeExr(path("taken.exr"), {makeLayer("", 2, 2, 1.0f)}, {}), std::runtime_error);
+    EXPECT_FALSE(fs::exists(path("taken.exr.partial")));
+    fs::create_directories(path("taken.png/inside"));
+    EXPECT_THROW(writePng(path("taken.png"), makeLayer("", 2, 2, 1.0f), 1.0), std::runtime_error);
+    EXPECT_FALSE(fs::exists(path("taken.png.partial")));
+}
+
+TEST_F(ImageIOTest, BadFilesRaiseInputError) {
+    EXPECT_THROW(readExr(path("missing.exr")), InputError);
+    std::ofstream(path("garbage.exr")) << "this is not an OpenEXR file\n";
+    try {
+        readExr(path("garbage.exr"));
+        FAIL() << "expected InputError";
+    } catch (const InputError& e) {
+        EXPECT_EQ(e.file(), path("garbage.exr"));
+        EXPECT_EQ(e.line(), 0);
+    }
+    // A valid file cut short.
+    writeExr(path("whole.exr"), {makeLayer("", 64, 64, 1.0f)}, {});
+    const std::vector<unsigned char> bytes = fileBytes(path("whole.exr"));
+    std::ofstream(path("cut.exr"), std::ios::binary)
+        .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size() / 2));
+    EXPECT_THROW(readExr(path("cut.exr")), InputError);
+}
+
+TEST_F(ImageIOTest, NonFiniteValuesAndMismatchedLayersAreRejected) {
+    for (float bad : {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(),
+                      -std::numeric_limits<float>::infinity()}) {
+        ImageLayer layer = makeLayer("", 3, 3, 1.0f);
+        layer.rgb[13] = bad;
+        EXPECT_THROW(writeExr(path("bad.exr"), {layer}, {}), std::logic_error);
+        EXPECT_THROW(writePng(path("bad.png"), layer, 1.0), std::logic_error);
+    }
+    EXPECT_THROW(writeExr(path("bad.exr"), {makeLayer("", 3, 3, 1.0f), makeLayer("a", 3, 2, 1.0f)}, {}),
+                 std::logic_error);
+    ImageLayer shortLayer = makeLayer("", 3, 3, 1.0f);
+    shortLayer.rgb.pop_back();
+    EXPECT_THROW(writeExr(path("bad.exr"), {shortLayer}, {}), std::logic_error);
+    EXPECT_THROW(writeExr(path("bad.exr"), {makeLayer("", 3, 3, 1.0f)}, {{"channels", "x"}}),
+                 std::logic_error);
+    EXPECT_FALSE(leftovers(dir_));
+}
+
+TEST_F(ImageIOTest, PngHasSignatureAndImageHeader) {
+    writePng(path("quick.png"), makeLayer("", 13, 7, 0.01f), 1.0);
+    const std::vector<unsigned char> b = fileBytes(path("quick.png"));
+    ASSERT_GE(b.size(), 33u);
+    const unsigned char signature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    for (int i = 0; i < 8; ++i) EXPECT_EQ(b[i], signature[i]);
+    EXPECT_EQ(std::string(b.begin() + 12, b.begin() + 16), "IHDR");
+    auto be32 = [&](size_t at) { return (b[at] << 24) | (b[at + 1] << 16) | (b[at + 2] << 8) | b[at + 3]; };
+    EXPECT_EQ(be32(16), 13);
+    EXPECT_EQ(be32(20), 7);
+    EXPECT_EQ(b[24], 8);  // bit depth
+    EXPECT_EQ(b[25], 2);  // colour type: RGB
+    EXPECT_FALSE(fs::exists(path("quick.png.partial")));
+}
+
+TEST_F(ImageIOTest, PngPixelsAreTheDisplayEncodingRounded) {
+    ImageLayer image{"", 4, 1, {0.0f, 0.0f, 0.0f, 0.5f, 0.5f, 0.5f, 40.0f, 1.0f, 0.2f, -0.1f, 2.0f, 0.3f}};
+    const double exposure = 1.7;
+    writePng(path("px.png"), image, exposure);
+    png_image png{};
+    png.version = PNG_IMAGE_VERSION;
+    ASSERT_TRUE(png_image_begin_read_from_file(&png, path("px.png").c_str()));
+    png.format = PNG_FORMAT_RGB;
+    std::vector<std::uint8_t> pixels(PNG_IMAGE_SIZE(png));
+    ASSERT_TRUE(png_image_finish_read(&png, nullptr, pixels.data(), 0, nullptr));
+    for (int p = 0; p < 4; ++p) {
+        const glm::dvec3 v = displayEncode({image.rgb[3 * p], image.rgb[3 * p + 1], image.rgb[3 * p + 2]}, exposure);
+        for (int c = 0; c < 3; ++c) EXPECT_EQ(pixels[3 * p + c], std::lround(255.0 * v[c])) << p << "," << c;
+    }
+}
+
+double srgbDecode(double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); }
+
+TEST(DisplayEncode, GreyFollowsTheReinhardCurveThroughTheSrgbOetf) {
+    for (double grey : {0.0, 0.001, 0.2, 1.0, 7.5, 1e6}) {
+        const double x = 2.0 * grey;
+        const double display = x / (1.0 + x);
+        const double expected = display <= 0.0031308 ? 12.92 * display
+                                                     : 1.055 * std::pow(display, 1.0 / 2.4) - 0.055;
+        const glm::dvec3 v = displayEncode(glm::dvec3(grey), 2.0);
+        // The grey's luminance is Σ of the matrix's Y row (1 to rounding): a few ulps.
+        for (int c = 0; c < 3; ++c) EXPECT_NEAR(v[c], expected, 16 * kEpsilon) << grey;
+    }
+}
+
+TEST(DisplayEncode, OutOfGamutColoursKeepLuminanceAndHue) {
+    // Bright and saturated (red channel far above 1) and spectral (a negative channel).
+    for (const glm::dvec3 rgb : {glm::dvec3(40.0, 1.0, 0.2), glm::dvec3(-0.1, 2.0, 0.3),
+                                 glm::dvec3(0.02, 0.01, 3.0)}) {
+        const glm::dvec3 v = displayEncode(rgb, 1.0);
+        const glm::dvec3 linear(srgbDecode(v.r), srgbDecode(v.g), srgbDecode(v.b));
+        const double y = linearSrgbToXyz(rgb).y;
+        // Decoding inverts the OETF to ~1e-15; the luminance is y/(1+y) to that precision.
+        EXPECT_NEAR(linearSrgbToXyz(linear).y, y / (1.0 + y), 1e-12) << rgb.r;
+        for (int c = 0; c < 3; ++c) {
+            EXPECT_GE(v[c], 0.0);
+            EXPECT_LE(v[c], 1.0);
+        }
+        // Same hue: the result lies on the segment from grey to the scaled input.
+        const glm::dvec3 grey(y / (1.0 + y));
+        const glm::dvec3 direction = glm::normalize(rgb / y * (y / (1.0 + y)) - grey);
+        const glm::dvec3 moved = linear - grey;
+        EXPECT_NEAR(glm::length(glm::cross(direction, moved)), 0.0, 1e-12) << rgb.r;
+        EXPECT_GT(glm::dot(direction, moved), 0.0);
+    }
+}
+
+TEST(AutoExposure, MapsThe99thPercentileOfLitPixelsToDisplayPointEight) {
+    // 9000 empty pixels (black or below 1e-6 of the maximum) and 1000 lit greys 1..1000: the 99th
+    // percentile of the lit ones is element 989 of 0..999, luminance 990.
+    ImageLayer image{"", 100, 100, {}};
+    for (int i = 0; i < 10000; ++i) {
+        const float v = i < 1000 ? static_cast<float>(i + 1) : (i % 2 ? 0.0f : 1e-4f);
+        image.rgb.insert(image.rgb.end(), {v, v, v});
+    }
+    const double exposure = autoExposure(image);
+    EXPECT_NEAR(exposure * 990.0, 0.8 / (1.0 - 0.8), 1e-12);
+    const glm::dvec3 shown = displayEncode(glm::dvec3(990.0), exposure);
+    EXPECT_NEAR(srgbDecode(shown.g), 0.8, 1e-12);
+    EXPECT_EQ(autoExposure(ImageLayer{"", 2, 1, std::vector<float>(6, 0.0f)}), 1.0);
+}
+
+}  // namespace
+}  // namespace flare
