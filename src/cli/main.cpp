@@ -7,6 +7,7 @@
 
 #include "GhostCommands.h"
 #include "LensCommands.h"
+#include "PreviewCommand.h"
 #include "flare/Error.h"
 
 int main(int argc, char** argv) {
@@ -14,6 +15,7 @@ int main(int argc, char** argv) {
     app.require_subcommand(1);
     flare::cli::addLensCommands(app);
     flare::cli::addGhostCommands(app);
+    flare::cli::addPreviewCommand(app);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

@@ -716,7 +716,10 @@ std::string_view defaultSceneText() { return kDefaultScene; }
 Scene defaultScene() { return parseSceneText(kDefaultScene, "<default scene>", ""); }
 
 LensSystem buildSceneLens(const Scene& scene) {
-    const LensPrescription prescription = loadLens(scene.lens);  // its own errors name the lens file
+    LensPrescription prescription = loadLens(scene.lens);  // its own errors name the lens file
+    const glm::dvec2 sensor = sensorSizeMm(scene, prescription.sensor);  // the scene's sensor wins
+    prescription.sensor.widthMm = sensor.x;
+    prescription.sensor.heightMm = sensor.y;
     // Add one setting at a time so that a failure can be pinned on the scene key that caused it
     // (the lens file was already checked at every zoom position when it was read).
     LensState state;

@@ -105,7 +105,8 @@ Scene parseSceneText(std::string_view text, const std::string& fileName, const s
 std::string_view defaultSceneText();
 Scene defaultScene();
 
-// Loads the scene's lens and builds it at the scene's zoom/focus/f-stop. Problems with the lens
+// Loads the scene's lens and builds it at the scene's zoom/focus/f-stop, with the scene's sensor
+// size when it gives one (see sensorSizeMm). Problems with the lens
 // file itself name the lens file; a zoom, focus or f-number the lens cannot take names the scene
 // file and the line of that key.
 LensSystem buildSceneLens(const Scene& scene);
