@@ -1,13 +1,21 @@
 #!/usr/bin/env bash
-# Set-up if needed, build, and run the main job on the embedded default lens: the paraxial
-# report and a cutaway drawing with traced ray fans. Prints where the output went.
+# Set-up if needed, build, and run the main job on the embedded default scene (a sun 13.5° off
+# axis through the 50 mm double Gauss at f/4): the per-ghost table, the noise-free flare preview
+# (layered EXR and PNG) and a cutaway drawing of the lens. Prints where the output went.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 scripts/build.sh >/dev/null
 mkdir -p out
-build/src/flare lens info double-gauss-50mm
-build/src/flare lens info double-gauss-50mm --json > out/double-gauss-50mm.json
+build/src/flare ghosts docs/examples/default.json > out/default-ghosts.txt
+sed -n '1,20p' out/default-ghosts.txt
+build/src/flare ghosts docs/examples/default.json --json > out/default-ghosts.json
+build/src/flare preview -o out/default.exr --png out/default.png
 build/src/flare lens draw double-gauss-50mm -o out/double-gauss-50mm.svg --rays 11
 echo
-echo "output: $(pwd)/out/double-gauss-50mm.json (paraxial data), $(pwd)/out/double-gauss-50mm.svg (cutaway)"
+echo "output in $(pwd)/out:"
+echo "  default.exr          preview, linear Rec.709 (add --layers for direct, ghost and one layer per ghost)"
+echo "  default.png          tone-mapped preview"
+echo "  default-ghosts.txt   per-ghost table (paraxial ghost focus, power, footprint)"
+echo "  default-ghosts.json  the same as JSON"
+echo "  double-gauss-50mm.svg  lens cutaway with ray fans"

@@ -1,6 +1,8 @@
 #include "GhostCommands.h"
 
+#include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -9,9 +11,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include "flare/Error.h"
 #include "flare/GhostAnalysis.h"
 #include "flare/LensFile.h"
 #include "flare/LensSystem.h"
+#include "flare/Scene.h"
 
 namespace flare::cli {
 
@@ -22,7 +26,8 @@ struct GhostOptions {
     std::string zoom;
     std::optional<double> focusMm;
     std::optional<double> fNumber;
-    std::vector<double> fieldDeg{0.0, 0.0};
+    std::vector<double> fieldDeg;  // empty: 0,0 for a lens, the light's direction for a scene
+    int light = 0;
     int order = 2;
     double wavelengthNm = 550.0;
     bool all = false;
@@ -58,14 +63,39 @@ std::string surfacesText(const GhostEstimate& g) {
     return text;
 }
 
+bool isScene(const std::string& input) {
+    return input.size() > 5 && input.compare(input.size() - 5, 5, ".json") == 0;
+}
+
 void run(const GhostOptions& o) {
-    const LensSystem lens = LensSystem::build(loadLens(o.input), LensState{o.zoom, o.focusMm, o.fNumber});
     GhostAnalysisOptions options;
     options.order = o.order;
     options.wavelengthNm = o.wavelengthNm;
     options.includeSensor = !o.noSensorGhosts;
-    const double fieldX = o.fieldDeg.at(0), fieldY = o.fieldDeg.size() > 1 ? o.fieldDeg[1] : 0.0;
-    const GhostReport report = analyseGhosts(lens, directionFromFieldDeg(fieldX, fieldY), options);
+    std::optional<LensSystem> built;
+    glm::dvec3 direction = directionFromFieldDeg(0.0, 0.0);
+    if (isScene(o.input)) {
+        // A scene supplies the lens state, the light and the render settings; options on the
+        // command line override the light's direction.
+        const Scene scene = loadScene(o.input);
+        built.emplace(buildSceneLens(scene));
+        if (o.light < 0 || o.light >= static_cast<int>(scene.lights.size()))
+            throw InputError(o.input, 0, "--light " + std::to_string(o.light) + ": the scene has " +
+                                             std::to_string(scene.lights.size()) + " light(s)");
+        direction = scene.lights[o.light].travelDirection();
+        options.includeSensor = scene.render.includeSensorGhosts && !o.noSensorGhosts;
+        options.keepShare = scene.render.pruneKeepShare;
+        options.relativeThreshold = scene.render.pruneRelativeThreshold;
+    } else {
+        built.emplace(LensSystem::build(loadLens(o.input), LensState{o.zoom, o.focusMm, o.fNumber}));
+    }
+    const LensSystem& lens = *built;
+    if (!o.fieldDeg.empty())
+        direction = directionFromFieldDeg(o.fieldDeg[0], o.fieldDeg.size() > 1 ? o.fieldDeg[1] : 0.0);
+    // Report the field as the angles at which the light is seen (the inverse of directionFromFieldDeg).
+    const double fieldX = std::atan(-direction.x / direction.z) * 180.0 / std::numbers::pi;
+    const double fieldY = std::atan(-direction.y / direction.z) * 180.0 / std::numbers::pi;
+    const GhostReport report = analyseGhosts(lens, direction, options);
 
     std::vector<const GhostEstimate*> shown;
     for (const GhostEstimate& g : report.ghosts)
@@ -128,7 +158,8 @@ void run(const GhostOptions& o) {
 void addGhostCommands(CLI::App& app) {
     auto o = std::make_shared<GhostOptions>();
     CLI::App* ghosts = app.add_subcommand("ghosts", "enumerate and analyse the ghost paths of a lens for one light");
-    ghosts->add_option("LENS", o->input, "lens file or shipped lens name")->required();
+    ghosts->add_option("LENS", o->input, "lens file, shipped lens name, or scene (.json)")->required();
+    ghosts->add_option("--light", o->light, "with a scene: which light (0-based index)");
     ghosts->add_option("--zoom", o->zoom, "zoom position name, or a focal length in mm");
     ghosts->add_option("--focus", o->focusMm, "object distance in mm")->check(CLI::PositiveNumber);
     ghosts->add_option("--f-number", o->fNumber, "stop the iris down to this f-number")->check(CLI::PositiveNumber);
