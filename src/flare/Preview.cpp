@@ -212,7 +212,8 @@ struct Rendered {
 };
 
 Rendered renderEstimate(const LensSystem& lens, const PreviewLight& light, const GhostReport& report,
-                        const GhostEstimate& estimate, const PreviewOptions& options, double pixelMm, bool fullImage) {
+                        const GhostEstimate& estimate, double importance, const PreviewOptions& options,
+                        double pixelMm, bool fullImage) {
     Rendered out;
     if (estimate.pupil.empty() || estimate.powerFraction == 0.0) return out;
     out.crop = fullImage ? Crop{0, 0, options.widthPx, options.heightPx}
@@ -226,7 +227,11 @@ Rendered renderEstimate(const LensSystem& lens, const PreviewLight& light, const
     const double spanA = (region.cellsA + 2) * region.cellMm, spanB = (region.cellsB + 2) * region.cellMm;
     const double footprintPx = std::max(estimate.footprintMaxMm.x - estimate.footprintMinMm.x,
                                         estimate.footprintMaxMm.y - estimate.footprintMinMm.y) / pixelMm;
-    const int cells = std::clamp(static_cast<int>(footprintPx / options.pixelsPerCell), options.minCells, options.maxCells);
+    // Resolution follows size and power: a ghost 100× weaker than the strongest gets a coarser grid
+    // and one level less of edge refinement (its edges cannot be seen at the same exposure).
+    const int maxCells = importance >= 0.01 ? options.maxCells : std::max(options.minCells, options.maxCells / 2);
+    const int cells = std::clamp(static_cast<int>(footprintPx / options.pixelsPerCell), options.minCells, maxCells);
+    const int refinement = importance >= 0.01 ? options.edgeRefinement : std::max(1, options.edgeRefinement - 1);
     const double cellMm = std::max(spanA, spanB) / cells;
     const int cellsA = std::max(1, static_cast<int>(std::ceil(spanA / cellMm)));
     const int cellsB = std::max(1, static_cast<int>(std::ceil(spanB / cellMm)));
@@ -235,7 +240,7 @@ Rendered renderEstimate(const LensSystem& lens, const PreviewLight& light, const
     path.reflections = estimate.path.reflections;
     for (const SpectralSample& sample : light.spectrum) {
         const SpectralIndices indices = lens.indicesAt(sample.wavelengthNm);
-        PathRenderer renderer{lens, indices, report.grid, path, pixelMm, options.edgeRefinement, raster,
+        PathRenderer renderer{lens, indices, report.grid, path, pixelMm, refinement, raster,
                               light.irradiance * sample.xyzWeight};
         renderer.render(a0, b0, cellMm, cellsA, cellsB);
         out.traced += renderer.traced;
@@ -303,10 +308,12 @@ PreviewImage renderPreview(const LensSystem& lens, const PreviewLight& light, co
     for (const GhostEstimate& g : report.ghosts)
         if (!g.pruned) kept.push_back(&g);
 
+    const double strongest = kept.empty() ? 0.0 : kept.front()->powerFraction;
     std::vector<Rendered> rendered(kept.size() + 1);
     tbb::parallel_for(size_t{0}, kept.size() + 1, [&](size_t i) {
         const GhostEstimate& e = i == kept.size() ? report.direct : *kept[i];
-        rendered[i] = renderEstimate(lens, light, report, e, options, image.pixelMm, false);
+        const double importance = i == kept.size() ? 1.0 : e.powerFraction / strongest;
+        rendered[i] = renderEstimate(lens, light, report, e, importance, options, image.pixelMm, false);
     });
 
     image.direct = {"direct", std::vector<float>(size, 0.0f)};

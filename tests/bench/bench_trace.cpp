@@ -86,4 +86,4 @@ BENCHMARK(BM_TraceForwardThreads)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark
 
 }  // namespace
 
-BENCHMARK_MAIN();
+
