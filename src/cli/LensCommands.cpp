@@ -10,7 +10,10 @@
 #include <nlohmann/json.hpp>
 
 #include "Output.h"
+#include <algorithm>
+
 #include "flare/Error.h"
+#include "flare/Ghosts.h"
 #include "flare/LensDrawing.h"
 #include "flare/LensFile.h"
 #include "flare/LensSystem.h"
@@ -183,13 +186,18 @@ void addLensCommands(CLI::App& app) {
     auto output = std::make_shared<std::string>();
     auto rays = std::make_shared<int>(9);
     auto field = std::make_shared<std::optional<double>>();
+    auto ghost = std::make_shared<std::vector<int>>();
     CLI::App* draw = lens->add_subcommand("draw", "SVG cutaway of the lens with traced ray fans");
     addLensOptions(draw, *drawOptions);
     draw->add_option("-o,--output", *output, "SVG file to write")->required();
     draw->add_option("--rays", *rays, "rays per field fan")->check(CLI::Range(1, 1000));
     draw->add_option("--field", *field, "off-axis field angle in degrees (default: the sensor's half width)")
         ->check(CLI::Range(-89.0, 89.0));
-    draw->callback([drawOptions, output, rays, field] {
+    draw->add_option("--ghost", *ghost, "draw this ghost's ray paths: reflecting surfaces I,J (1-based, in the order the "
+                                       "light meets them; the sensor is surfaces+1)")
+        ->delimiter(',')
+        ->expected(2, 4);
+    draw->callback([drawOptions, output, rays, field, ghost] {
         const LensSystem system = buildLens(*drawOptions);
         LensDrawingOptions options;
         options.raysPerField = *rays;
@@ -203,7 +211,31 @@ void addLensCommands(CLI::App& app) {
         }
         options.fieldsDeg = {0.0};
         if (fieldDeg != 0.0) options.fieldsDeg.push_back(fieldDeg);
-        const std::vector<DrawnRay> fans = traceRayFans(system, options);
+        std::vector<DrawnRay> fans;
+        if (ghost->empty()) {
+            fans = traceRayFans(system, options);
+        } else {
+            std::vector<int> reflections;
+            for (int number : *ghost) {
+                const int index = number - 1;
+                const bool sensor = index == system.surfaceCount();
+                if (index < 0 || index > system.surfaceCount() || (!sensor && !system.isReflecting(index)))
+                    throw InputError(drawOptions->file, 0,
+                                     "--ghost: surface " + std::to_string(number) + " is not a reflecting surface");
+                reflections.push_back(index);
+            }
+            const std::vector<GhostPath> valid = enumerateGhosts(system, static_cast<int>(reflections.size()), true);
+            if (std::find(valid.begin(), valid.end(), GhostPath{reflections}) == valid.end())
+                throw InputError(drawOptions->file, 0,
+                                 "--ghost: not a ghost path (after reflecting at J the light must travel back to I < J)");
+            options.fieldsDeg = {field->value_or(0.0)};
+            std::string surfaces;
+            for (int number : *ghost) surfaces += (surfaces.empty() ? "" : "-") + std::to_string(number);
+            options.title = system.name() + ", ghost " + surfaces;
+            fans = traceRayFans(system, LensDrawingOptions{1, {options.fieldsDeg[0]}, options.wavelengthNm, ""});
+            for (DrawnRay& r : traceGhostRays(system, reflections, options.fieldsDeg[0], *rays, options.wavelengthNm))
+                fans.push_back(std::move(r));
+        }
         writeFileAtomically(*output, drawLensSvg(system, fans, options));
         std::printf("wrote %s (%zu rays)\n", output->c_str(), fans.size());
     });

@@ -63,6 +63,59 @@ TEST(Cli, LensDrawWritesAnSvg) {
     EXPECT_NE(svg.str().find("</svg>"), std::string::npos);
 }
 
+TEST(Cli, LensDrawGhostPathsAndRejectsNonGhosts) {
+    const std::string out = testing::TempDir() + "/flare_cli_ghost.svg";
+    std::remove(out.c_str());
+    const CliRun r = run("lens draw double-gauss-50mm --ghost 7,3 --field 5 --rays 5 -o " + out);
+    ASSERT_EQ(r.exitCode, 0) << r.out;
+    std::ifstream in(out);
+    std::stringstream svg;
+    svg << in.rdbuf();
+    EXPECT_NE(svg.str().find("#e377c2"), std::string::npos);  // the ghost rays' colour
+    EXPECT_NE(svg.str().find("ghost 7-3"), std::string::npos);
+    EXPECT_EQ(run("lens draw double-gauss-50mm --ghost 3,7 -o " + out).exitCode, 2);  // not a ghost order
+    EXPECT_EQ(run("lens draw double-gauss-50mm --ghost 6,3 -o " + out).exitCode, 2);  // 6 is the stop
+}
+
+TEST(Cli, GhostsJsonHasTheDocumentedKeys) {
+    const CliRun r = run("ghosts double-gauss-50mm --field-deg 10,5 --json --all");
+    ASSERT_EQ(r.exitCode, 0) << r.out;
+    const nlohmann::json j = nlohmann::json::parse(r.out);
+    ASSERT_EQ(j["ghosts"].size(), 55u);
+    double previous = 1.0;
+    for (const auto& g : j["ghosts"]) {
+        for (const char* key : {"ghost_efl_mm", "ghost_focus_mm", "power_fraction"}) EXPECT_TRUE(g.contains(key)) << key;
+        EXPECT_EQ(g["surfaces"].size(), 2u);
+        EXPECT_TRUE(g["footprint_mm"].contains("x_min"));
+        EXPECT_TRUE(g["pruned"].is_boolean());
+        EXPECT_LE(g["power_fraction"].get<double>(), previous);  // sorted by power
+        previous = g["power_fraction"].get<double>();
+    }
+    const CliRun csv = run("ghosts double-gauss-50mm --csv");
+    EXPECT_EQ(csv.exitCode, 0);
+    EXPECT_EQ(csv.out.rfind("surfaces,label,ghost_efl_mm,ghost_focus_mm", 0), 0u);
+}
+
+TEST(Cli, PreviewOfTheDefaultSceneWritesExrAndPng) {
+    const std::string exr = testing::TempDir() + "/flare_cli_preview.exr";
+    const std::string png = testing::TempDir() + "/flare_cli_preview.png";
+    const std::string scene = testing::TempDir() + "/flare_cli_small.json";
+    // The default scene at a quarter of its resolution, to keep the test quick.
+    std::ofstream(scene) << R"({"lens": "double-gauss-50mm", "f_number": 4,
+        "sensor": {"resolution": [384, 256]},
+        "lights": [{"type": "directional", "field_deg": [11, 8], "angular_diameter_deg": 0.53}],
+        "render": {"preview_wavelengths": 3}})";
+    std::remove(exr.c_str());
+    const CliRun r = run("preview " + scene + " -o " + exr + " --png " + png + " --layers --quiet");
+    ASSERT_EQ(r.exitCode, 0) << r.out;
+    EXPECT_TRUE(std::ifstream(exr).good());
+    EXPECT_TRUE(std::ifstream(png).good());
+    std::ofstream(scene) << R"({"lens": "double-gauss-50mm", "lights": [{"type": "directional", "field_deg": [11, 8], "angular_diameter_deg": -1}]})";
+    const CliRun bad = run("preview " + scene + " -o " + exr);
+    EXPECT_EQ(bad.exitCode, 2);
+    EXPECT_NE(bad.out.find("angular_diameter_deg"), std::string::npos) << bad.out;
+}
+
 TEST(Cli, BadLensFileExitsWithCodeTwoAndNamesFileAndLine) {
     const std::string path = testing::TempDir() + "/flare_cli_bad.lens";
     std::ofstream(path) << "name bad\nfocal_length_mm 50\nsurfaces\n40 5 UNOBTAINIUM 10\nstop 2 air 8\n-60 auto air 10\n";
