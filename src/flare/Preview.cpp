@@ -37,8 +37,8 @@ public:
     int height() const { return height_; }
     const std::vector<float>& xyz() const { return xyz_; }
 
-    // Adds power to the pixel containing p... spread bilinearly over the four nearest centres, so
-    // that sub-pixel positions are kept and power is conserved.
+    // Adds power at p, spread bilinearly over the four nearest pixel centres, so that sub-pixel
+    // positions are kept and power is conserved.
     void splat(const glm::dvec2& p, const glm::dvec3& power) {
         const double fx = p.x - 0.5, fy = p.y - 0.5;
         const int ix = static_cast<int>(std::floor(fx)), iy = static_cast<int>(std::floor(fy));
