@@ -11,9 +11,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "LensOptions.h"
 #include "flare/Error.h"
 #include "flare/GhostAnalysis.h"
-#include "flare/LensFile.h"
 #include "flare/LensSystem.h"
 #include "flare/Scene.h"
 
@@ -22,10 +22,7 @@ namespace flare::cli {
 namespace {
 
 struct GhostOptions {
-    std::string input;
-    std::string zoom;
-    std::optional<double> focusMm;
-    std::optional<double> fNumber;
+    LensOptions lens;  // with a scene (.json), the scene supplies the lens and its state
     std::vector<double> fieldDeg;  // empty: 0,0 for a lens, the light's direction for a scene
     int light = 0;
     int order = 2;
@@ -74,20 +71,20 @@ void run(const GhostOptions& o) {
     options.includeSensor = !o.noSensorGhosts;
     std::optional<LensSystem> built;
     glm::dvec3 direction = directionFromFieldDeg(0.0, 0.0);
-    if (isScene(o.input)) {
+    if (isScene(o.lens.file)) {
         // A scene supplies the lens state, the light and the render settings; options on the
         // command line override the light's direction.
-        const Scene scene = loadScene(o.input);
+        const Scene scene = loadScene(o.lens.file);
         built.emplace(buildSceneLens(scene));
         if (o.light < 0 || o.light >= static_cast<int>(scene.lights.size()))
-            throw InputError(o.input, 0, "--light " + std::to_string(o.light) + ": the scene has " +
+            throw InputError(o.lens.file, 0, "--light " + std::to_string(o.light) + ": the scene has " +
                                              std::to_string(scene.lights.size()) + " light(s)");
         direction = scene.lights[o.light].travelDirection();
         options.includeSensor = scene.render.includeSensorGhosts && !o.noSensorGhosts;
         options.keepShare = scene.render.pruneKeepShare;
         options.relativeThreshold = scene.render.pruneRelativeThreshold;
     } else {
-        built.emplace(LensSystem::build(loadLens(o.input), LensState{o.zoom, o.focusMm, o.fNumber}));
+        built.emplace(buildLens(o.lens));
     }
     const LensSystem& lens = *built;
     if (!o.fieldDeg.empty())
@@ -158,11 +155,8 @@ void run(const GhostOptions& o) {
 void addGhostCommands(CLI::App& app) {
     auto o = std::make_shared<GhostOptions>();
     CLI::App* ghosts = app.add_subcommand("ghosts", "enumerate and analyse the ghost paths of a lens for one light");
-    ghosts->add_option("LENS", o->input, "lens file, shipped lens name, or scene (.json)")->required();
+    addLensOptions(ghosts, o->lens, "lens file, shipped lens name, or scene (.json)");
     ghosts->add_option("--light", o->light, "with a scene: which light (0-based index)");
-    ghosts->add_option("--zoom", o->zoom, "zoom position name, or a focal length in mm");
-    ghosts->add_option("--focus", o->focusMm, "object distance in mm")->check(CLI::PositiveNumber);
-    ghosts->add_option("--f-number", o->fNumber, "stop the iris down to this f-number")->check(CLI::PositiveNumber);
     ghosts->add_option("--field-deg", o->fieldDeg, "light's field angle X[,Y] in degrees")
         ->delimiter(',')
         ->expected(1, 2)

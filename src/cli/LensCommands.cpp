@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "LensOptions.h"
 #include "Output.h"
 #include <algorithm>
 
@@ -24,26 +25,8 @@ namespace flare::cli {
 
 namespace {
 
-struct LensOptions {
-    std::string file;
-    std::string zoom;
-    std::optional<double> focusMm;
-    std::optional<double> fNumber;
-};
-
-void addLensOptions(CLI::App* command, LensOptions& options) {
-    command->add_option("LENSFILE", options.file, "lens prescription (.lens, or pbrt .dat), or the name of a shipped lens such as double-gauss-50mm")->required();
-    command->add_option("--zoom", options.zoom, "zoom position name, or a focal length in mm");
-    command->add_option("--focus", options.focusMm, "object distance in mm from the first vertex (default: the file's, usually infinity)")
-        ->check(CLI::PositiveNumber);
-    command->add_option("--f-number", options.fNumber, "stop the iris down to this f-number")
-        ->check(CLI::PositiveNumber);
-}
-
-LensSystem buildLens(const LensOptions& options) {
-    const LensPrescription prescription = loadLens(options.file);
-    return LensSystem::build(prescription, LensState{options.zoom, options.focusMm, options.fNumber});
-}
+constexpr const char* kLensHelp =
+    "lens prescription (.lens, or pbrt .dat), or the name of a shipped lens such as double-gauss-50mm";
 
 nlohmann::json jsonNumber(double value) {
     return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
@@ -169,14 +152,14 @@ void addLensCommands(CLI::App& app) {
     auto wavelength = std::make_shared<double>(kLineDNm);
     auto json = std::make_shared<bool>(false);
     CLI::App* info = lens->add_subcommand("info", "paraxial data and the surface table");
-    addLensOptions(info, *infoOptions);
+    addLensOptions(info, *infoOptions, kLensHelp);
     info->add_option("--wavelength", *wavelength, "wavelength in nm (default: d line 587.56)")
         ->check(CLI::Range(300.0, 2000.0));
     info->add_flag("--json", *json, "print one JSON object");
     info->callback([infoOptions, wavelength, json] {
         const LensPrescription prescription = loadLens(infoOptions->file);
         const LensSystem system = LensSystem::build(
-            prescription, LensState{infoOptions->zoom, infoOptions->focusMm, infoOptions->fNumber});
+            prescription, infoOptions->state());
         const nlohmann::json j = lensInfoJson(prescription, system, *wavelength);
         if (*json) std::cout << j.dump(2) << "\n";
         else printLensInfo(j);
@@ -188,7 +171,7 @@ void addLensCommands(CLI::App& app) {
     auto field = std::make_shared<std::optional<double>>();
     auto ghost = std::make_shared<std::vector<int>>();
     CLI::App* draw = lens->add_subcommand("draw", "SVG cutaway of the lens with traced ray fans");
-    addLensOptions(draw, *drawOptions);
+    addLensOptions(draw, *drawOptions, kLensHelp);
     draw->add_option("-o,--output", *output, "SVG file to write")->required();
     draw->add_option("--rays", *rays, "rays per field fan")->check(CLI::Range(1, 1000));
     draw->add_option("--field", *field, "off-axis field angle in degrees (default: the sensor's half width)")
