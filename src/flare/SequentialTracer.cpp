@@ -83,6 +83,11 @@ TraceResult tracePath(const LensSystem& lens, const SpectralIndices& indices, co
             ++result.interactions;
             if (options.pathPointsMm) options.pathPointsMm->push_back(result.ray.originMm);
             if (reflectHere) {
+                // Only the sensor itself reflects; around it is the dark camera body.
+                const glm::dvec3& q = result.ray.originMm;
+                if (options.clipApertures && (std::abs(q.x) > 0.5 * lens.sensor().widthMm ||
+                                              std::abs(q.y) > 0.5 * lens.sensor().heightMm))
+                    return fail(result, TraceStatus::Vignetted, sensor);
                 result.ray.direction = reflect(result.ray.direction, glm::dvec3(0.0, 0.0, 1.0));
                 if (options.fresnelWeights) result.throughput *= lens.sensor().reflectance;
                 ++nextReflection;
