@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "CompareCommand.h"
 #include "GhostCommands.h"
 #include "LensCommands.h"
 #include "PreviewCommand.h"
@@ -16,6 +17,7 @@ int main(int argc, char** argv) {
     flare::cli::addLensCommands(app);
     flare::cli::addGhostCommands(app);
     flare::cli::addPreviewCommand(app);
+    flare::cli::addCompareCommand(app);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
