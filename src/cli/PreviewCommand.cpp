@@ -29,15 +29,6 @@ struct PreviewCommandOptions {
     bool quiet = false;
 };
 
-Spectrum toSpectrum(const SpectrumSpec& spec) {
-    switch (spec.kind) {
-        case SpectrumSpec::Kind::Blackbody: return Spectrum::blackbody(spec.temperatureK);
-        case SpectrumSpec::Kind::D65: return Spectrum::d65();
-        case SpectrumSpec::Kind::EqualEnergy: return Spectrum::equalEnergy();
-    }
-    return Spectrum::equalEnergy();
-}
-
 // The preview traces parallel rays. A point or disk light at distance d is rendered as a distant
 // source in its direction with irradiance I/d² at the lens (exact in the far field, d ≫ the
 // aperture) and, for a disk, the angular diameter it subtends.

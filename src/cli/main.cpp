@@ -9,6 +9,7 @@
 #include "GhostCommands.h"
 #include "LensCommands.h"
 #include "PreviewCommand.h"
+#include "RenderCommand.h"
 #include "flare/Error.h"
 
 int main(int argc, char** argv) {
@@ -17,9 +18,12 @@ int main(int argc, char** argv) {
     flare::cli::addLensCommands(app);
     flare::cli::addGhostCommands(app);
     flare::cli::addPreviewCommand(app);
+    flare::cli::addRenderCommand(app);
     flare::cli::addCompareCommand(app);
     try {
         app.parse(argc, argv);
+    } catch (const CLI::RuntimeError& e) {
+        return e.get_exit_code();  // a command's own exit status (e.g. 130: interrupted)
     } catch (const CLI::ParseError& e) {
         const int code = app.exit(e);
         return code == 0 ? 0 : flare::kExitInputError;

@@ -20,6 +20,15 @@
 
 namespace flare {
 
+Spectrum toSpectrum(const SpectrumSpec& spec) {
+    switch (spec.kind) {
+        case SpectrumSpec::Kind::Blackbody: return Spectrum::blackbody(spec.temperatureK);
+        case SpectrumSpec::Kind::D65: return Spectrum::d65();
+        case SpectrumSpec::Kind::EqualEnergy: return Spectrum::equalEnergy();
+    }
+    return Spectrum::equalEnergy();
+}
+
 namespace {
 
 // The embedded default scene; docs/examples/default.json is the same text (a test checks it).

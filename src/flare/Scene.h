@@ -16,6 +16,7 @@
 
 #include "flare/LensPrescription.h"
 #include "flare/LensSystem.h"
+#include "flare/Spectrum.h"
 
 namespace flare {
 
@@ -25,6 +26,9 @@ struct SpectrumSpec {
     Kind kind = Kind::Blackbody;
     double temperatureK = 5778.0;  // Blackbody only (5778 K: the sun's effective temperature)
 };
+
+// The spectral shape a SpectrumSpec names.
+Spectrum toSpectrum(const SpectrumSpec& spec);
 
 struct LightSpec {
     enum class Type { Directional, Point, Disk };

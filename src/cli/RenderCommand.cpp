@@ -1,0 +1,298 @@
+#include "RenderCommand.h"
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <tbb/global_control.h>
+
+#include "Output.h"
+#include "flare/Error.h"
+#include "flare/ImageIO.h"
+#include "flare/Render.h"
+#include "flare/Scene.h"
+#include "flare/Spectrum.h"
+
+namespace flare::cli {
+
+namespace {
+
+struct RenderCommandOptions {
+    std::string scene;  // "" = the embedded default scene
+    std::string exr, png, report, checkpoint;
+    std::string mode = "guided";
+    std::string kernel = "fixed";
+    double radiusPx = 1.0;
+    long long photons = -1;  // −1: the scene's
+    double timeS = 0.0;
+    int maxBounces = -2;     // −2: the scene's
+    long long seed = -1;     // −1: the scene's
+    int threads = 0;
+    double checkpointIntervalS = 60.0;
+    double interiorAlbedo = 0.0;
+    bool layers = false;
+    bool quiet = false;
+};
+
+std::atomic<bool> gInterrupted{false};
+extern "C" void onInterrupt(int) { gInterrupted.store(true); }
+
+ImageLayer toRgb(const std::string& name, const std::vector<float>& xyz, int width, int height) {
+    ImageLayer layer{name, width, height, std::vector<float>(xyz.size())};
+    for (size_t i = 0; i < xyz.size(); i += 3) {
+        const glm::dvec3 rgb = xyzToLinearSrgb({xyz[i], xyz[i + 1], xyz[i + 2]});
+        for (int c = 0; c < 3; ++c) layer.rgb[i + c] = static_cast<float>(rgb[c]);
+    }
+    return layer;
+}
+
+const char* kindName(PathTally::Kind kind) {
+    switch (kind) {
+        case PathTally::Kind::Direct: return "direct";
+        case PathTally::Kind::Ghost: return "ghost";
+        case PathTally::Kind::Higher: return "higher";
+        case PathTally::Kind::Scatter: return "scatter";
+    }
+    return "?";
+}
+
+nlohmann::json reportJson(const Renderer& renderer, const Scene& scene, const LensSystem& lens, const RenderCommandOptions& o) {
+    const RenderStatistics& s = renderer.statistics();
+    nlohmann::json j;
+    j["scene"] = scene.sourceFile.empty() ? "embedded default scene" : scene.sourceFile;
+    j["lens"] = lens.name();
+    j["mode"] = o.mode;
+    j["seed"] = renderer.options().seed;
+    j["photons"] = s.photons;
+    j["guided_photons"] = s.guidedPhotons;
+    j["unguided_photons"] = s.unguidedPhotons;
+    j["passes"] = s.passes;
+    j["wall_time_s"] = s.seconds;
+    j["photons_per_second"] = s.seconds > 0.0 ? s.photons / s.seconds : 0.0;
+    j["units"] = "power in W for the lights' power units; irradiance layers in W/m2";
+
+    nlohmann::json lights = nlohmann::json::array();
+    nlohmann::json skipped = nlohmann::json::array();
+    for (const LightPlan& l : renderer.lights()) {
+        lights.push_back({{"name", l.name}, {"entering_power_w", l.enteringPowerW}, {"kept_ghosts", l.keptGhosts},
+                          {"pruned_ghosts", l.prunedGhosts}, {"skipped", l.skipped}});
+        if (l.skipped) skipped.push_back({{"light", l.name}, {"reason", l.skipReason}});
+    }
+    j["lights"] = lights;
+    j["skipped"] = skipped;
+
+    nlohmann::json layers;
+    for (const PathTally& t : renderer.layerTallies())
+        layers[kindName(t.kind)] = {{"power_w", renderer.tallyPowerW(t)}, {"standard_error_w", renderer.tallyStandardErrorW(t)}};
+    j["layers"] = layers;
+
+    std::vector<const PathTally*> ghosts;
+    for (const PathTally& t : renderer.tallies())
+        if (t.kind == PathTally::Kind::Ghost && (t.sumMeans != 0.0 || t.guided)) ghosts.push_back(&t);
+    std::stable_sort(ghosts.begin(), ghosts.end(), [&](const PathTally* a, const PathTally* b) {
+        return renderer.tallyPowerW(*a) > renderer.tallyPowerW(*b);
+    });
+    nlohmann::json ghostArray = nlohmann::json::array();
+    for (const PathTally* t : ghosts) {
+        const double entering = renderer.lights()[t->light].enteringPowerW;
+        const double power = renderer.tallyPowerW(*t);
+        ghostArray.push_back({{"light", renderer.lights()[t->light].name},
+                              {"label", t->path.label()},
+                              {"surfaces", t->path.surfaceNumbers()},
+                              {"power_w", power},
+                              {"standard_error_w", renderer.tallyStandardErrorW(*t)},
+                              {"power_fraction", entering > 0.0 ? power / entering : 0.0},
+                              {"analysed_power_fraction", t->analysedPowerFraction},
+                              {"guided", t->guided}});
+    }
+    j["ghosts"] = ghostArray;
+
+    // Photon weights are powers per photon drawn: their sum over all photons (both strategies)
+    // divided by the photon count estimates a power.
+    const double perPhoton = s.photons > 0 ? 1.0 / static_cast<double>(s.photons) : 0.0;
+    nlohmann::json fates;
+    for (int f = 0; f < static_cast<int>(PhotonFate::Count); ++f)
+        fates[toString(static_cast<PhotonFate>(f))] = {{"photons", s.fates[f].photons},
+                                                       {"power_w", s.fates[f].powerW * perPhoton}};
+    j["unguided_energy"] = {{"emitted_power_w", s.unguidedEmittedPowerW * perPhoton},
+                            {"entered_power_w", s.unguidedEnteredPowerW * perPhoton},
+                            {"fates", fates}};
+    return j;
+}
+
+void printProgress(const Renderer& renderer, std::int64_t target, double limitS, double elapsedS) {
+    const RenderStatistics& s = renderer.statistics();
+    const double rate = elapsedS > 0.0 ? s.photons / elapsedS : 0.0;
+    double fraction = target > 0 ? static_cast<double>(s.photons) / target : 0.0;
+    if (limitS > 0.0) fraction = std::max(fraction, elapsedS / limitS);
+    fraction = std::min(fraction, 1.0);
+    const double left = fraction > 0.0 ? elapsedS * (1.0 - fraction) / fraction : 0.0;
+    const int width = 30, filled = static_cast<int>(fraction * width);
+    std::fprintf(stderr, "\r[%.*s%*s] %5.1f%%  %.3g photons  %.3g photons/s  %.0f s left   ", filled,
+                 "##############################", width - filled, "", 100.0 * fraction, static_cast<double>(s.photons),
+                 rate, left);
+    std::fflush(stderr);
+}
+
+int run(const RenderCommandOptions& o) {
+    std::unique_ptr<tbb::global_control> threads;
+    if (o.threads > 0)
+        threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, o.threads);
+
+    const Scene scene = o.scene.empty() ? defaultScene() : loadScene(o.scene);
+    const LensSystem lens = buildSceneLens(scene);
+
+    RenderOptions options;
+    options.mode = o.mode == "naive" ? RenderOptions::Mode::Naive : RenderOptions::Mode::Guided;
+    options.seed = o.seed >= 0 ? static_cast<std::uint64_t>(o.seed) : scene.render.seed;
+    options.maxBounces = o.maxBounces >= -1 ? o.maxBounces : scene.render.maxBounces;
+    options.perGhostLayers = o.layers;
+    options.analysis.order = scene.render.ghostOrder;
+    options.analysis.includeSensor = scene.render.includeSensorGhosts;
+    options.analysis.keepShare = scene.render.pruneKeepShare;
+    options.analysis.relativeThreshold = scene.render.pruneRelativeThreshold;
+    options.materials = {o.interiorAlbedo, o.interiorAlbedo, o.interiorAlbedo};
+    options.film.widthPx = scene.sensor.widthPx;
+    options.film.heightPx = scene.sensor.heightPx;
+    options.film.widthMm = lens.sensor().widthMm;
+    options.film.heightMm = lens.sensor().heightMm;
+    options.film.kernel = o.kernel == "progressive" ? FilmSettings::Kernel::Progressive
+                          : o.kernel == "adaptive"  ? FilmSettings::Kernel::Adaptive
+                                                    : FilmSettings::Kernel::Fixed;
+    options.film.radiusPx = o.radiusPx;
+    if (o.kernel == "progressive" && o.radiusPx == 1.0) options.film.radiusPx = 4.0;
+
+    Renderer renderer(lens, scene, options);
+    const std::string checkpoint = o.checkpoint.empty() ? o.exr + ".checkpoint" : o.checkpoint;
+    if (!o.checkpoint.empty() && std::filesystem::exists(o.checkpoint)) {
+        renderer.loadCheckpoint(o.checkpoint);
+        if (!o.quiet)
+            std::fprintf(stderr, "resumed from %s: %lld photons already traced\n", o.checkpoint.c_str(),
+                         static_cast<long long>(renderer.statistics().photons));
+    }
+
+    const std::int64_t target = o.timeS > 0.0 ? 0 : (o.photons > 0 ? o.photons : scene.render.photons);
+    const std::int64_t perPass = options.photonsPerPass();
+    // At least two passes, so that the variance estimate exists.
+    const std::int64_t passesWanted = o.timeS > 0.0 ? 0 : std::max<std::int64_t>(2, (target + perPass - 1) / perPass);
+
+    gInterrupted.store(false);
+    auto previous = std::signal(SIGINT, onInterrupt);
+    const auto start = std::chrono::steady_clock::now();
+    auto lastCheckpoint = start;
+    auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+    bool interrupted = false;
+    for (;;) {
+        const int done = renderer.statistics().passes;
+        if (o.timeS > 0.0 ? (elapsed() >= o.timeS && done >= 2) : done >= passesWanted) break;
+        renderer.runPass();
+        if (!o.quiet) printProgress(renderer, passesWanted * perPass, o.timeS, elapsed());
+        if (gInterrupted.load()) {
+            interrupted = true;
+            break;
+        }
+        if (std::chrono::duration<double>(std::chrono::steady_clock::now() - lastCheckpoint).count() >= o.checkpointIntervalS) {
+            renderer.saveCheckpoint(checkpoint);
+            lastCheckpoint = std::chrono::steady_clock::now();
+        }
+    }
+    std::signal(SIGINT, previous);
+    if (!o.quiet) std::fprintf(stderr, "\n");
+    if (interrupted) {
+        renderer.saveCheckpoint(checkpoint);
+        std::fprintf(stderr, "interrupted: checkpoint written to %s (resume with --checkpoint %s)\n", checkpoint.c_str(),
+                     checkpoint.c_str());
+        return 130;
+    }
+
+    const int w = options.film.widthPx, h = options.film.heightPx;
+    std::vector<float> total(static_cast<size_t>(w) * h * 3, 0.0f);
+    std::vector<ImageLayer> layers{ImageLayer{}};
+    for (int l = 0; l < static_cast<int>(renderer.layerNames().size()); ++l) {
+        const std::vector<float> xyz = renderer.layerXyz(l);
+        if (l < kFixedLayerCount)
+            for (size_t i = 0; i < xyz.size(); ++i) total[i] += xyz[i];
+        layers.push_back(toRgb(renderer.layerNames()[l], xyz, w, h));
+    }
+    layers.front() = toRgb("", total, w, h);
+    std::vector<float> variance = renderer.film().varianceRgb();
+    if (!variance.empty()) layers.push_back(ImageLayer{"variance", w, h, std::move(variance)});
+
+    const RenderStatistics& s = renderer.statistics();
+    const std::vector<std::pair<std::string, std::string>> metadata = {
+        {"software", "flare render"},
+        {"colorSpace", "linear Rec.709 (sRGB primaries, D65 white)"},
+        {"units", "sensor irradiance, W/m2 per the lights' power units; variance layer in (W/m2)^2"},
+        {"scene", scene.sourceFile.empty() ? "embedded default scene" : scene.sourceFile},
+        {"lens", lens.name()},
+        {"mode", o.mode},
+        {"photons", std::to_string(s.photons)},
+        {"seed", std::to_string(options.seed)},
+    };
+    writeExr(o.exr, layers, metadata);
+    if (!o.png.empty()) {
+        const ImageLayer& ghost = layers[1 + kLayerGhost];
+        writePng(o.png, layers.front(), 0.25 * autoExposure(ghost));
+    }
+    if (!o.report.empty()) writeFileAtomically(o.report, reportJson(renderer, scene, lens, o).dump(2) + "\n");
+    if (o.checkpoint.empty() && std::filesystem::exists(checkpoint)) std::filesystem::remove(checkpoint);
+    else if (!o.checkpoint.empty()) renderer.saveCheckpoint(checkpoint);
+
+    if (!o.quiet) {
+        std::fprintf(stderr, "render: %s, %s mode, %lld photons in %.2f s (%.3g photons/s)\n", lens.name().c_str(),
+                     o.mode.c_str(), static_cast<long long>(s.photons), s.seconds, s.seconds > 0 ? s.photons / s.seconds : 0.0);
+        for (const LightPlan& l : renderer.lights())
+            if (l.skipped) std::fprintf(stderr, "  skipped light %s: %s\n", l.name.c_str(), l.skipReason.c_str());
+    }
+    std::printf("wrote %s%s%s%s%s\n", o.exr.c_str(), o.png.empty() ? "" : " and ", o.png.c_str(),
+                o.report.empty() ? "" : " and ", o.report.c_str());
+    return 0;
+}
+
+}  // namespace
+
+void addRenderCommand(CLI::App& app) {
+    auto o = std::make_shared<RenderCommandOptions>();
+    CLI::App* render = app.add_subcommand("render", "physically based render by photon tracing (EXR with layers)");
+    render->add_option("SCENE", o->scene, "scene file (JSON); default: the embedded default scene");
+    render->add_option("-o,--output", o->exr, "EXR file to write")->required();
+    render->add_option("--mode", o->mode, "guided (default) or naive (the unguided tracer alone)")
+        ->check(CLI::IsMember({"naive", "guided"}));
+    auto* photons = render->add_option("--photons", o->photons, "photons to trace (default: the scene's)")
+                        ->check(CLI::PositiveNumber);
+    render->add_option("--time", o->timeS, "trace for this many seconds instead of a photon count")
+        ->check(CLI::PositiveNumber)
+        ->excludes(photons);
+    render->add_option("--max-bounces", o->maxBounces, "stop photons after K reflections (-1: unbounded)")
+        ->check(CLI::Range(-1, 1000));
+    render->add_option("--seed", o->seed, "random seed (default: the scene's)")->check(CLI::NonNegativeNumber);
+    render->add_option("--threads", o->threads, "worker threads (default: all cores)")->check(CLI::PositiveNumber);
+    render->add_flag("--layers", o->layers, "add one layer per kept ghost (ghost_03_07.R/G/B)");
+    render->add_option("--png", o->png, "also write a tone-mapped PNG");
+    render->add_option("--report", o->report, "write a JSON report (per-ghost power with standard errors, layers, energy)");
+    render->add_option("--checkpoint", o->checkpoint,
+                       "checkpoint file: resumed from if it exists, written periodically, on Ctrl-C and at the end");
+    render->add_option("--checkpoint-interval", o->checkpointIntervalS, "seconds between checkpoints (default 60)")
+        ->check(CLI::PositiveNumber);
+    render->add_option("--kernel", o->kernel, "density estimation: fixed (default), progressive or adaptive")
+        ->check(CLI::IsMember({"fixed", "progressive", "adaptive"}));
+    render->add_option("--radius", o->radiusPx, "kernel radius in pixels (fixed; first pass for progressive)")
+        ->check(CLI::PositiveNumber);
+    render->add_option("--interior-albedo", o->interiorAlbedo,
+                       "diffuse albedo of the barrel, element edges and iris blades (default 0: black)")
+        ->check(CLI::Range(0.0, 1.0));
+    render->add_flag("--quiet", o->quiet, "no progress or statistics on stderr");
+    render->callback([o] {
+        const int code = run(*o);
+        if (code != 0) throw CLI::RuntimeError(code);
+    });
+}
+
+}  // namespace flare::cli

@@ -1,0 +1,260 @@
+#include "flare/Film.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <istream>
+#include <numbers>
+#include <ostream>
+#include <stdexcept>
+
+#include "flare/Spectrum.h"
+
+namespace flare {
+
+namespace {
+
+constexpr int kTilePx = 32;
+constexpr int kCountBlockPx = 8;
+constexpr double kMm2PerM2 = 1e6;
+constexpr std::uint64_t kFilmMagic = 0x31464c4946524c46ull;  // "FLRFILF1"
+
+template <class T>
+void writeRaw(std::ostream& out, const T& value) {
+    out.write(reinterpret_cast<const char*>(&value), sizeof(T));
+}
+template <class T>
+T readRaw(std::istream& in) {
+    T value{};
+    in.read(reinterpret_cast<char*>(&value), sizeof(T));
+    if (!in) throw std::runtime_error("checkpoint: truncated film data");
+    return value;
+}
+
+}  // namespace
+
+// A layer of 3 doubles per pixel, stored as 32×32 tiles allocated on first touch.
+struct Film::Tiles {
+    int width, height, tilesX, tilesY;
+    std::vector<std::unique_ptr<double[]>> tiles;
+
+    Tiles(int w, int h)
+        : width(w), height(h), tilesX((w + kTilePx - 1) / kTilePx), tilesY((h + kTilePx - 1) / kTilePx),
+          tiles(static_cast<size_t>(tilesX) * tilesY) {}
+
+    double* at(int x, int y) {
+        auto& tile = tiles[static_cast<size_t>(y / kTilePx) * tilesX + x / kTilePx];
+        if (!tile) tile = std::make_unique<double[]>(kTilePx * kTilePx * 3);  // zeroed
+        return &tile[(static_cast<size_t>(y % kTilePx) * kTilePx + x % kTilePx) * 3];
+    }
+    const double* find(int x, int y) const {
+        const auto& tile = tiles[static_cast<size_t>(y / kTilePx) * tilesX + x / kTilePx];
+        return tile ? &tile[(static_cast<size_t>(y % kTilePx) * kTilePx + x % kTilePx) * 3] : nullptr;
+    }
+    void clear() {
+        for (auto& tile : tiles) tile.reset();
+    }
+    void save(std::ostream& out) const {
+        for (const auto& tile : tiles) {
+            writeRaw<std::uint8_t>(out, tile ? 1 : 0);
+            if (tile) out.write(reinterpret_cast<const char*>(tile.get()), sizeof(double) * kTilePx * kTilePx * 3);
+        }
+    }
+    void load(std::istream& in) {
+        for (auto& tile : tiles) {
+            tile.reset();
+            if (readRaw<std::uint8_t>(in) == 0) continue;
+            tile = std::make_unique<double[]>(kTilePx * kTilePx * 3);
+            in.read(reinterpret_cast<char*>(tile.get()), sizeof(double) * kTilePx * kTilePx * 3);
+            if (!in) throw std::runtime_error("checkpoint: truncated film data");
+        }
+    }
+};
+
+Film::Film(const FilmSettings& settings, int layerCount) : settings_(settings) {
+    if (settings.widthPx <= 0 || settings.heightPx <= 0 || !(settings.widthMm > 0.0) || !(settings.heightMm > 0.0))
+        throw std::invalid_argument("Film: sizes must be positive");
+    pixelMm_ = settings.widthMm / settings.widthPx;
+    if (std::abs(settings.heightMm / settings.heightPx - pixelMm_) > 1e-3 * pixelMm_)
+        throw std::invalid_argument("Film: pixels must be square");
+    if (!(settings.radiusPx > 0.0) || settings.neighbours < 1 || !(settings.maxRadiusPx >= 1.0) ||
+        !(settings.progressiveAlpha > 0.0 && settings.progressiveAlpha < 1.0))
+        throw std::invalid_argument("Film: invalid kernel settings");
+    for (int l = 0; l < layerCount; ++l) layers_.push_back(std::make_unique<Tiles>(settings.widthPx, settings.heightPx));
+    pass_ = std::make_unique<Tiles>(settings.widthPx, settings.heightPx);
+    sumSquares_ = std::make_unique<Tiles>(settings.widthPx, settings.heightPx);
+    sumPasses_ = std::make_unique<Tiles>(settings.widthPx, settings.heightPx);
+    if (settings.kernel == FilmSettings::Kernel::Adaptive) {
+        countW_ = (settings.widthPx + kCountBlockPx - 1) / kCountBlockPx;
+        countH_ = (settings.heightPx + kCountBlockPx - 1) / kCountBlockPx;
+        counts_.assign(layerCount, std::vector<std::uint32_t>(static_cast<size_t>(countW_) * countH_, 0));
+        pendingCounts_ = counts_;
+    }
+}
+
+Film::~Film() = default;
+Film::Film(Film&&) noexcept = default;
+Film& Film::operator=(Film&&) noexcept = default;
+
+glm::dvec2 Film::toPixel(const glm::dvec2& sensorMm) const {
+    return {(0.5 * settings_.widthMm - sensorMm.x) / pixelMm_, (0.5 * settings_.heightMm + sensorMm.y) / pixelMm_};
+}
+
+double Film::radiusPx(int layer, const glm::dvec2& sensorMm) const {
+    switch (settings_.kernel) {
+        case FilmSettings::Kernel::Fixed: return settings_.radiusPx;
+        case FilmSettings::Kernel::Progressive:
+            return settings_.radiusPx * std::pow(static_cast<double>(passes_ + 1), -0.5 * (1.0 - settings_.progressiveAlpha));
+        case FilmSettings::Kernel::Adaptive: {
+            const glm::dvec2 pixel = toPixel(sensorMm);
+            const int bx = std::clamp(static_cast<int>(pixel.x) / kCountBlockPx, 0, countW_ - 1);
+            const int by = std::clamp(static_cast<int>(pixel.y) / kCountBlockPx, 0, countH_ - 1);
+            const double count = counts_[layer][static_cast<size_t>(by) * countW_ + bx];
+            if (count == 0.0) return settings_.maxRadiusPx;
+            // k photons expected within π r² at the block's density (photons per px²).
+            const double density = count / (kCountBlockPx * kCountBlockPx);
+            return std::clamp(std::sqrt(settings_.neighbours / (std::numbers::pi * density)), 1.0, settings_.maxRadiusPx);
+        }
+    }
+    return settings_.radiusPx;
+}
+
+void Film::addKernel(Tiles& tiles, const glm::dvec2& pixel, double radius, const glm::dvec3& value) {
+    const int w = settings_.widthPx, h = settings_.heightPx;
+    if (radius <= 1.0) {
+        // Bilinear tent over the four nearest pixel centres: the weights sum to 1 exactly.
+        const double fx = pixel.x - 0.5, fy = pixel.y - 0.5;
+        const int x0 = static_cast<int>(std::floor(fx)), y0 = static_cast<int>(std::floor(fy));
+        const double tx = fx - x0, ty = fy - y0;
+        const double weight[2][2] = {{(1 - tx) * (1 - ty), tx * (1 - ty)}, {(1 - tx) * ty, tx * ty}};
+        for (int dy = 0; dy < 2; ++dy)
+            for (int dx = 0; dx < 2; ++dx) {
+                const int x = x0 + dx, y = y0 + dy;
+                if (x < 0 || y < 0 || x >= w || y >= h || weight[dy][dx] == 0.0) continue;
+                double* p = tiles.at(x, y);
+                for (int c = 0; c < 3; ++c) p[c] += weight[dy][dx] * value[c];
+            }
+        return;
+    }
+    // Epanechnikov kernel 1 − d²/r², normalised over the centres it covers (also off the image).
+    const int xLo = static_cast<int>(std::floor(pixel.x - radius)), xHi = static_cast<int>(std::ceil(pixel.x + radius));
+    const int yLo = static_cast<int>(std::floor(pixel.y - radius)), yHi = static_cast<int>(std::ceil(pixel.y + radius));
+    const double inverseR2 = 1.0 / (radius * radius);
+    double total = 0.0;
+    for (int y = yLo; y <= yHi; ++y)
+        for (int x = xLo; x <= xHi; ++x) {
+            const double dx = x + 0.5 - pixel.x, dy = y + 0.5 - pixel.y;
+            total += std::max(0.0, 1.0 - (dx * dx + dy * dy) * inverseR2);
+        }
+    if (total <= 0.0) return;
+    const glm::dvec3 scaled = value / total;
+    for (int y = std::max(yLo, 0); y <= std::min(yHi, h - 1); ++y)
+        for (int x = std::max(xLo, 0); x <= std::min(xHi, w - 1); ++x) {
+            const double dx = x + 0.5 - pixel.x, dy = y + 0.5 - pixel.y;
+            const double weight = 1.0 - (dx * dx + dy * dy) * inverseR2;
+            if (weight <= 0.0) continue;
+            double* p = tiles.at(x, y);
+            for (int c = 0; c < 3; ++c) p[c] += weight * scaled[c];
+        }
+}
+
+void Film::splat(int layer, const glm::dvec2& sensorMm, const glm::dvec3& xyzPowerW, bool inTotal) {
+    const glm::dvec2 pixel = toPixel(sensorMm);
+    // Far off the image (by more than any kernel): nothing to add.
+    const double reach = std::max(settings_.radiusPx, settings_.maxRadiusPx) + 1.0;
+    if (!(pixel.x > -reach && pixel.y > -reach && pixel.x < settings_.widthPx + reach &&
+          pixel.y < settings_.heightPx + reach))
+        return;
+    const double radius = radiusPx(layer, sensorMm);
+    addKernel(*layers_[layer], pixel, radius, xyzPowerW);
+    if (inTotal) addKernel(*pass_, pixel, radius, xyzPowerW);
+    if (settings_.kernel == FilmSettings::Kernel::Adaptive) {
+        const int bx = static_cast<int>(pixel.x) / kCountBlockPx, by = static_cast<int>(pixel.y) / kCountBlockPx;
+        if (pixel.x >= 0 && pixel.y >= 0 && bx < countW_ && by < countH_)
+            ++pendingCounts_[layer][static_cast<size_t>(by) * countW_ + bx];
+    }
+}
+
+void Film::endPass(std::int64_t photons) {
+    const double scale = 1.0 / (static_cast<double>(photons) * pixelMm_ * pixelMm_ / kMm2PerM2);
+    for (int y = 0; y < settings_.heightPx; ++y)
+        for (int x = 0; x < settings_.widthPx; ++x) {
+            const double* p = pass_->find(x, y);
+            if (!p) continue;
+            const glm::dvec3 rgb = xyzToLinearSrgb(glm::dvec3(p[0], p[1], p[2]) * scale);
+            double* s = sumPasses_->at(x, y);
+            double* q = sumSquares_->at(x, y);
+            for (int c = 0; c < 3; ++c) {
+                s[c] += rgb[c];
+                q[c] += rgb[c] * rgb[c];
+            }
+        }
+    pass_->clear();
+    counts_ = pendingCounts_;
+    ++passes_;
+}
+
+std::vector<float> Film::irradianceXyz(int layer, double photonsEmitted) const {
+    const int w = settings_.widthPx, h = settings_.heightPx;
+    std::vector<float> out(static_cast<size_t>(w) * h * 3, 0.0f);
+    if (!(photonsEmitted > 0.0)) return out;
+    const double scale = 1.0 / (photonsEmitted * pixelMm_ * pixelMm_ / kMm2PerM2);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            if (const double* p = layers_[layer]->find(x, y))
+                for (int c = 0; c < 3; ++c) out[(static_cast<size_t>(y) * w + x) * 3 + c] = static_cast<float>(p[c] * scale);
+    return out;
+}
+
+std::vector<float> Film::varianceRgb() const {
+    if (passes_ < 2) return {};
+    const int w = settings_.widthPx, h = settings_.heightPx;
+    const double n = passes_;
+    std::vector<float> out(static_cast<size_t>(w) * h * 3, 0.0f);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const double* s = sumPasses_->find(x, y);
+            if (!s) continue;
+            const double* q = sumSquares_->find(x, y);
+            for (int c = 0; c < 3; ++c) {
+                const double mean = s[c] / n;
+                // Unbiased sample variance of the pass images, divided by n: the variance of their mean.
+                const double variance = std::max(0.0, (q[c] - n * mean * mean) / (n - 1.0)) / n;
+                out[(static_cast<size_t>(y) * w + x) * 3 + c] = static_cast<float>(variance);
+            }
+        }
+    return out;
+}
+
+void Film::save(std::ostream& out) const {
+    writeRaw(out, kFilmMagic);
+    writeRaw<std::int32_t>(out, settings_.widthPx);
+    writeRaw<std::int32_t>(out, settings_.heightPx);
+    writeRaw<std::int32_t>(out, static_cast<std::int32_t>(settings_.kernel));
+    writeRaw<std::int32_t>(out, layerCount());
+    writeRaw<std::int32_t>(out, passes_);
+    for (const auto& layer : layers_) layer->save(out);
+    sumPasses_->save(out);
+    sumSquares_->save(out);
+    for (const auto& counts : counts_) out.write(reinterpret_cast<const char*>(counts.data()), sizeof(std::uint32_t) * counts.size());
+}
+
+void Film::load(std::istream& in) {
+    if (readRaw<std::uint64_t>(in) != kFilmMagic) throw std::runtime_error("checkpoint: not a film");
+    const int w = readRaw<std::int32_t>(in), h = readRaw<std::int32_t>(in);
+    const int kernel = readRaw<std::int32_t>(in), layers = readRaw<std::int32_t>(in);
+    if (w != settings_.widthPx || h != settings_.heightPx || kernel != static_cast<int>(settings_.kernel) || layers != layerCount())
+        throw std::runtime_error("checkpoint: the film's size, kernel or layers differ from this render's");
+    passes_ = readRaw<std::int32_t>(in);
+    for (auto& layer : layers_) layer->load(in);
+    sumPasses_->load(in);
+    sumSquares_->load(in);
+    for (auto& counts : counts_) {
+        in.read(reinterpret_cast<char*>(counts.data()), sizeof(std::uint32_t) * counts.size());
+        if (!in) throw std::runtime_error("checkpoint: truncated film data");
+    }
+    pendingCounts_ = counts_;
+    pass_->clear();
+}
+
+}  // namespace flare

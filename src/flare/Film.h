@@ -1,0 +1,95 @@
+// The sensor as a photon-density estimator. Photons that reach the sensor are splatted with a
+// reconstruction kernel into layers of accumulated power (CIE XYZ); dividing by the number of
+// photons emitted and the pixel area gives irradiance. Three kernels:
+//   Fixed        one radius for every photon (≤ 1 px: the bilinear tent, so that power lands
+//                exactly where the photon did, split between the four nearest pixel centres);
+//   Progressive  the radius shrinks from pass to pass, r_p = r_1 · p^(−(1−α)/2), as in progressive
+//                photon mapping: the blur (bias) vanishes while the noise still averages out;
+//   Adaptive     a k-nearest-neighbour (balloon) estimate: the radius is chosen so that about k
+//                earlier photons of the same layer fall inside it, measured on a coarse count grid
+//                of the passes already finished, so sparse regions (scatter, higher orders) get
+//                wide kernels and dense ones sharp kernels.
+// Kernels are normalised over the pixel centres they cover (off-image centres included), so a
+// photon's power is conserved exactly on the plane and only the part falling off the image is
+// lost. Memory does not depend on the photon count: layers are tiled, and a tile exists only once
+// a photon has touched it. Work is organised in passes (a fixed number of photons); the spread of
+// the per-pass images of the total gives a per-pixel variance estimate.
+#pragma once
+
+#include <cstdint>
+#include <iosfwd>
+#include <memory>
+#include <vector>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+namespace flare {
+
+struct FilmSettings {
+    enum class Kernel { Fixed, Progressive, Adaptive };
+    int widthPx = 0, heightPx = 0;
+    double widthMm = 0.0, heightMm = 0.0;  // the sensor; pixels must be square
+    Kernel kernel = Kernel::Fixed;
+    double radiusPx = 1.0;           // Fixed: the radius; Progressive: the first pass's radius
+    double progressiveAlpha = 2.0 / 3.0;
+    int neighbours = 24;             // Adaptive: photons expected inside the kernel
+    double maxRadiusPx = 32.0;       // Adaptive: upper bound (and the radius before any count)
+};
+
+class Film {
+public:
+    // `layerCount` layers, each accumulating XYZ power. Throws std::invalid_argument for a
+    // malformed setting (non-square pixels, non-positive sizes).
+    Film(const FilmSettings& settings, int layerCount);
+    ~Film();
+    Film(Film&&) noexcept;
+    Film& operator=(Film&&) noexcept;
+
+    const FilmSettings& settings() const { return settings_; }
+    int layerCount() const { return static_cast<int>(layers_.size()); }
+    double pixelMm() const { return pixelMm_; }
+    int passes() const { return passes_; }
+
+    // Adds `xyzPowerW` (W, CIE XYZ) arriving at `sensorMm` (lens space) to a layer. When
+    // `inTotal`, the power also counts towards the variance of the total image.
+    void splat(int layer, const glm::dvec2& sensorMm, const glm::dvec3& xyzPowerW, bool inTotal = true);
+    // Ends a pass of `photons` photons (the divisor of this pass's image in the variance estimate;
+    // every pass of a render must have the same count for the variance to be meaningful).
+    void endPass(std::int64_t photons);
+
+    // Irradiance of a layer, W/m² in XYZ, interleaved, row-major from the top row, after
+    // `photonsEmitted` photons in all: accumulated power / (photons · pixel area).
+    std::vector<float> irradianceXyz(int layer, double photonsEmitted) const;
+    // Per-pixel variance of the total image's irradiance estimate (linear Rec.709 RGB, (W/m²)²),
+    // from the spread between passes. Empty before two passes.
+    std::vector<float> varianceRgb() const;
+    // Kernel radius (px) a photon landing now at `sensorMm` in `layer` would get.
+    double radiusPx(int layer, const glm::dvec2& sensorMm) const;
+
+    // Continuous pixel coordinates (centres at i + 0.5) of a sensor point, as a camera shows the
+    // picture: the sensor image turned by 180°.
+    glm::dvec2 toPixel(const glm::dvec2& sensorMm) const;
+
+    // Checkpoints: the whole accumulated state in binary (host byte order, checked on load).
+    void save(std::ostream& out) const;
+    // Throws std::runtime_error if the stream does not hold a film of the same settings and layers.
+    void load(std::istream& in);
+
+private:
+    struct Tiles;
+    void addKernel(Tiles& tiles, const glm::dvec2& pixel, double radius, const glm::dvec3& value);
+
+    FilmSettings settings_;
+    double pixelMm_ = 0.0;
+    int passes_ = 0;
+    std::vector<std::unique_ptr<Tiles>> layers_;
+    std::unique_ptr<Tiles> pass_;          // the current pass of the total
+    std::unique_ptr<Tiles> sumSquares_;    // Σ over passes of (pass image in RGB)²
+    std::unique_ptr<Tiles> sumPasses_;     // Σ over passes of the pass image (RGB)
+    // Adaptive kernel: photon counts per layer on a grid of kCountBlock² pixel blocks.
+    std::vector<std::vector<std::uint32_t>> counts_, pendingCounts_;
+    int countW_ = 0, countH_ = 0;
+};
+
+}  // namespace flare

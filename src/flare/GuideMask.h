@@ -1,0 +1,49 @@
+// The live cells of a path's pupil region (LivePupilRegion, from the ghost analysis), grown by
+// one cell on every side: the analysis samples cell centres at one wavelength, and a path stays
+// live a little beyond them (other wavelengths, the sun's disk). The mask decides who samples
+// what: guided emission draws points uniformly over it, and the unguided tracer leaves to the
+// guided strategy exactly the paths that start inside it. Paths outside it are not lost.
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+#include <vector>
+
+#include <glm/vec2.hpp>
+
+#include "flare/GhostAnalysis.h"
+
+namespace flare {
+
+class GuideMask {
+public:
+    GuideMask() = default;
+    explicit GuideMask(const LivePupilRegion& region);
+
+    bool empty() const { return cells_.empty(); }
+    double areaMm2() const { return areaMm2_; }
+    int cellCount() const { return static_cast<int>(cells_.size()); }
+    double cellMm() const { return cellMm_; }
+    // Whether the pupil-plane point lies in a live cell (cells are half-open: [a0, a0 + cell)).
+    bool contains(double aMm, double bMm) const {
+        if (cells_.empty()) return false;
+        const double x = (aMm - aMinMm_) / cellMm_, y = (bMm - bMinMm_) / cellMm_;
+        if (!(x >= 0.0 && y >= 0.0 && x < cellsA_ && y < cellsB_)) return false;
+        return live_[static_cast<size_t>(y) * cellsA_ + static_cast<size_t>(x)] != 0;
+    }
+    // A point uniform over the live cells, from three uniform numbers in [0, 1): density
+    // 1 / areaMm2() on the mask.
+    glm::dvec2 sample(double uCell, double ua, double ub) const {
+        const int c = cells_[std::min(cells_.size() - 1, static_cast<size_t>(uCell * cells_.size()))];
+        return {aMinMm_ + (c % cellsA_ + ua) * cellMm_, bMinMm_ + (c / cellsA_ + ub) * cellMm_};
+    }
+
+private:
+    double aMinMm_ = 0.0, bMinMm_ = 0.0, cellMm_ = 1.0;
+    int cellsA_ = 0, cellsB_ = 0;
+    std::vector<std::uint8_t> live_;
+    std::vector<int> cells_;  // indices of the live cells, for sampling
+    double areaMm2_ = 0.0;
+};
+
+}  // namespace flare

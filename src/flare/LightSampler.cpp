@@ -1,0 +1,92 @@
+#include "flare/LightSampler.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <glm/geometric.hpp>
+
+namespace flare {
+
+namespace {
+
+constexpr double kDegToRad = std::numbers::pi / 180.0;
+constexpr double kMm2PerM2 = 1e6;
+
+// Axial depth of the first surface over its clear aperture: how far behind the pupil plane an
+// entering ray may still be on its way to the glass.
+double frontDepthMm(const LensSystem& lens) {
+    const Surface& first = lens.surface(0);
+    double depth = 0.0;
+    for (int k = 0; k <= 32; ++k) {
+        const double r = first.semiApertureMm * k / 32.0;
+        double sag = 0.0;
+        if (first.sagMm(r * r, &sag)) depth = std::max(depth, std::abs(sag));
+    }
+    return depth + 1.0;
+}
+
+}  // namespace
+
+LightSampler::LightSampler(const LightSpec& light, const LensSystem& lens)
+    : light_(light), grid_(PupilGrid::forDirection(lens, light.travelDirection())) {
+    const double depth = frontDepthMm(lens);
+    // Widest angle between an emitted ray and the central direction.
+    double spreadRad = 0.0;
+    if (light.type == LightSpec::Type::Directional) {
+        const double halfAngle = 0.5 * light.angularDiameterDeg * kDegToRad;
+        cosHalfAngle_ = std::cos(halfAngle);
+        meanCosine_ = 0.5 * (1.0 + cosHalfAngle_);
+        spreadRad = halfAngle;
+        nominalPowerW_ = light.power / kMm2PerM2 * 4.0 * grid_.halfSizeMm * grid_.halfSizeMm;
+    } else {
+        const double distanceMm = glm::length(light.positionMm);
+        spreadRad = std::atan((grid_.halfSizeMm + light.radiusMm) / std::max(distanceMm - depth, 1e-3));
+        nominalPowerW_ = light.power * 4.0 * grid_.halfSizeMm * grid_.halfSizeMm / (distanceMm * distanceMm);
+        const glm::dvec3 n = light.diskNormal();
+        const glm::dvec3 helper = std::abs(n.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
+        diskU_ = glm::normalize(glm::cross(helper, n));
+        diskV_ = glm::cross(n, diskU_);
+    }
+    // A ray inclined by `spread` to the central direction crosses the plane up to depth·tan(spread)
+    // away from where it meets the glass.
+    emissionHalfSizeMm_ = 1.02 * grid_.halfSizeMm + depth * std::tan(std::min(spreadRad, 1.4));
+}
+
+EmittedRay LightSampler::rayThrough(double aMm, double bMm, double u1, double u2) const {
+    const glm::dvec3 onPlane = grid_.centreMm + aMm * grid_.e1 + bMm * grid_.e2;
+    EmittedRay out;
+    if (light_.type == LightSpec::Type::Directional) {
+        // Uniform over the cone's solid angle. Radiance L is uniform over the disk and the light's
+        // irradiance E on the plane is ∫ L cosθ dω = L Ω ⟨cosθ⟩, so a ray drawn with density 1/Ω
+        // carries E cosθ / ⟨cosθ⟩ per unit area.
+        const double cosTheta = 1.0 - u1 * (1.0 - cosHalfAngle_);
+        const double sinTheta = std::sqrt(std::max(0.0, 1.0 - cosTheta * cosTheta));
+        const double phi = 2.0 * std::numbers::pi * u2;
+        const glm::dvec3 direction = cosTheta * grid_.direction +
+                                     sinTheta * (std::cos(phi) * grid_.e1 + std::sin(phi) * grid_.e2);
+        out.ray = {onPlane - grid_.backOffMm * direction, direction};
+        out.powerPerMm2 = light_.power / kMm2PerM2 * cosTheta / meanCosine_;
+        return out;
+    }
+    // Point or disk: a ray from the (sampled) emitting point through the plane point. The solid
+    // angle of a plane element dA seen from the source is dA cosθ' / r²; a Lambertian disk of
+    // on-axis intensity I sends I cosθs dω from a point drawn uniformly over its area.
+    glm::dvec3 source = light_.positionMm;
+    double cosSource = 1.0;
+    if (light_.type == LightSpec::Type::Disk && light_.radiusMm > 0.0) {
+        const double r = light_.radiusMm * std::sqrt(u1);
+        const double phi = 2.0 * std::numbers::pi * u2;
+        source += r * (std::cos(phi) * diskU_ + std::sin(phi) * diskV_);
+    }
+    const glm::dvec3 toPlane = onPlane - source;
+    const double distance2 = glm::dot(toPlane, toPlane);
+    const glm::dvec3 direction = toPlane / std::sqrt(distance2);
+    if (light_.type == LightSpec::Type::Disk) cosSource = glm::dot(direction, light_.diskNormal());
+    const double cosPlane = glm::dot(direction, grid_.direction);
+    out.ray = {source, direction};
+    out.powerPerMm2 = cosSource > 0.0 && cosPlane > 0.0 ? light_.power * cosSource * cosPlane / distance2 : 0.0;
+    return out;
+}
+
+}  // namespace flare

@@ -1,0 +1,45 @@
+// Emission of photons from one light towards the lens. A photon is named by the point (a, b) where
+// its ray crosses the light's pupil plane: the PupilGrid plane, normal to the light's central
+// direction through the first vertex, shared with the ghost analysis. Naive emission draws (a, b)
+// uniformly over a square that covers every ray able to enter the front aperture; guided emission
+// draws it over a ghost's live cells. The light's own extent (the sun's disk, a point's position,
+// a disk's area) then gives the ray through that point and the power it carries per unit area of
+// the plane, so that power density × area / probability is an unbiased photon power.
+#pragma once
+
+#include "flare/PupilGrid.h"
+#include "flare/Scene.h"
+
+namespace flare {
+
+struct EmittedRay {
+    Ray ray;                     // starts in front of the lens
+    double powerPerMm2 = 0.0;    // W per mm² of the pupil plane (0: this ray carries nothing)
+};
+
+class LightSampler {
+public:
+    LightSampler(const LightSpec& light, const LensSystem& lens);
+
+    const PupilGrid& grid() const { return grid_; }
+    // Naive emission covers [−h, h]² of the pupil plane (h ≥ grid().halfSizeMm, widened for the
+    // light's angular extent) so that no ray that can enter the lens is left out.
+    double emissionHalfSizeMm() const { return emissionHalfSizeMm_; }
+    // The ray through (aMm, bMm) on the pupil plane, with the light's angular extent sampled by
+    // u1, u2 in [0, 1): uniform over the sun's cone, or a uniform point of a disk light.
+    EmittedRay rayThrough(double aMm, double bMm, double u1, double u2) const;
+    // Power that crosses the emission square towards the lens when the light is a point or a
+    // parallel beam: a scale for budgets and reports (W).
+    double nominalPowerW() const { return nominalPowerW_; }
+
+private:
+    LightSpec light_;
+    PupilGrid grid_;
+    double emissionHalfSizeMm_ = 0.0;
+    double cosHalfAngle_ = 1.0;         // directional: the cone of the light's apparent disk
+    double meanCosine_ = 1.0;           // of rays uniform over that cone
+    glm::dvec3 diskU_{1, 0, 0}, diskV_{0, 1, 0};
+    double nominalPowerW_ = 0.0;
+};
+
+}  // namespace flare
