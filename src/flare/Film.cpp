@@ -111,8 +111,11 @@ double Film::radiusPx(int layer, const glm::dvec2& sensorMm) const {
             const int by = std::clamp(static_cast<int>(pixel.y) / kCountBlockPx, 0, countH_ - 1);
             const double count = counts_[layer][static_cast<size_t>(by) * countW_ + bx];
             if (count == 0.0) return settings_.maxRadiusPx;
-            // k photons expected within π r² at the block's density (photons per px²).
-            const double density = count / (kCountBlockPx * kCountBlockPx);
+            // k photons expected within π r² at the block's density (photons per px² of the part
+            // of the block that lies on the image: blocks at the right and bottom may be cut).
+            const int blockW = std::min(kCountBlockPx, settings_.widthPx - bx * kCountBlockPx);
+            const int blockH = std::min(kCountBlockPx, settings_.heightPx - by * kCountBlockPx);
+            const double density = count / (blockW * blockH);
             return std::clamp(std::sqrt(settings_.neighbours / (std::numbers::pi * density)), 1.0, settings_.maxRadiusPx);
         }
     }
@@ -245,16 +248,33 @@ void Film::load(std::istream& in) {
     const int kernel = readRaw<std::int32_t>(in), layers = readRaw<std::int32_t>(in);
     if (w != settings_.widthPx || h != settings_.heightPx || kernel != static_cast<int>(settings_.kernel) || layers != layerCount())
         throw std::runtime_error("checkpoint: the film's size, kernel or layers differ from this render's");
-    passes_ = readRaw<std::int32_t>(in);
-    for (auto& layer : layers_) layer->load(in);
-    sumPasses_->load(in);
-    sumSquares_->load(in);
-    for (auto& counts : counts_) {
-        in.read(reinterpret_cast<char*>(counts.data()), sizeof(std::uint32_t) * counts.size());
+    const int passes = readRaw<std::int32_t>(in);
+    if (passes < 0) throw std::runtime_error("checkpoint: negative pass count");
+    // Read everything into fresh buffers first: a bad file leaves this film untouched.
+    std::vector<std::unique_ptr<Tiles>> loaded;
+    for (int l = 0; l < layers + 2; ++l) {
+        loaded.push_back(std::make_unique<Tiles>(w, h));
+        loaded.back()->load(in);
+    }
+    auto counts = counts_;
+    for (auto& c : counts) {
+        in.read(reinterpret_cast<char*>(c.data()), sizeof(std::uint32_t) * c.size());
         if (!in) throw std::runtime_error("checkpoint: truncated film data");
     }
+    // The pass sums and their squares are written together: a tile in one is a tile in the other.
+    const Tiles& sums = *loaded[layers];
+    const Tiles& squares = *loaded[layers + 1];
+    for (size_t t = 0; t < sums.tiles.size(); ++t)
+        if (static_cast<bool>(sums.tiles[t]) != static_cast<bool>(squares.tiles[t]))
+            throw std::runtime_error("checkpoint: inconsistent variance data");
+
+    for (int l = 0; l < layers; ++l) layers_[l] = std::move(loaded[l]);
+    sumPasses_ = std::move(loaded[layers]);
+    sumSquares_ = std::move(loaded[layers + 1]);
+    counts_ = std::move(counts);
     pendingCounts_ = counts_;
     pass_->clear();
+    passes_ = passes;
 }
 
 }  // namespace flare

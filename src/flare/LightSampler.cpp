@@ -38,11 +38,9 @@ LightSampler::LightSampler(const LightSpec& light, const LensSystem& lens)
         cosHalfAngle_ = std::cos(halfAngle);
         meanCosine_ = 0.5 * (1.0 + cosHalfAngle_);
         spreadRad = halfAngle;
-        nominalPowerW_ = light.power / kMm2PerM2 * 4.0 * grid_.halfSizeMm * grid_.halfSizeMm;
     } else {
         const double distanceMm = glm::length(light.positionMm);
         spreadRad = std::atan((grid_.halfSizeMm + light.radiusMm) / std::max(distanceMm - depth, 1e-3));
-        nominalPowerW_ = light.power * 4.0 * grid_.halfSizeMm * grid_.halfSizeMm / (distanceMm * distanceMm);
         const glm::dvec3 n = light.diskNormal();
         const glm::dvec3 helper = std::abs(n.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
         diskU_ = glm::normalize(glm::cross(helper, n));

@@ -28,9 +28,6 @@ public:
     // The ray through (aMm, bMm) on the pupil plane, with the light's angular extent sampled by
     // u1, u2 in [0, 1): uniform over the sun's cone, or a uniform point of a disk light.
     EmittedRay rayThrough(double aMm, double bMm, double u1, double u2) const;
-    // Power that crosses the emission square towards the lens when the light is a point or a
-    // parallel beam: a scale for budgets and reports (W).
-    double nominalPowerW() const { return nominalPowerW_; }
 
 private:
     LightSpec light_;
@@ -39,7 +36,6 @@ private:
     double cosHalfAngle_ = 1.0;         // directional: the cone of the light's apparent disk
     double meanCosine_ = 1.0;           // of rays uniform over that cone
     glm::dvec3 diskU_{1, 0, 0}, diskV_{0, 1, 0};
-    double nominalPowerW_ = 0.0;
 };
 
 }  // namespace flare

@@ -1,7 +1,10 @@
-// Shared helpers for the unit tests: paths into the source tree and lens loading.
+// Shared helpers for the unit tests: paths into the source tree, lens loading, and critical values
+// of the χ² and normal distributions for statistical tests.
 #pragma once
 
+#include <cmath>
 #include <string>
+#include <vector>
 
 #include "flare/LensFile.h"
 #include "flare/LensSystem.h"
@@ -21,5 +24,74 @@ inline const char* const kShippedLenses[] = {
     "lenses/double-gauss-50mm.lens", "lenses/wide-angle-28mm.lens", "lenses/telephoto-180mm.lens",
     "lenses/fisheye-16mm.lens",      "lenses/zoom-24-70mm.lens",
 };
+
+// ---- Statistics for sampler tests ----------------------------------------------------------------
+// Regularized incomplete gamma functions P(s, x) and Q(s, x) = 1 − P(s, x): the series for
+// x < s + 1 and the continued fraction (modified Lentz) otherwise, as in Numerical Recipes §6.2;
+// relative accuracy ~1e-14.
+inline double regularizedGammaQ(double s, double x) {
+    if (!(x > 0.0)) return 1.0;
+    const double logPrefactor = -x + s * std::log(x) - std::lgamma(s);
+    const double eps = 1e-16, tiny = 1e-300;
+    if (x < s + 1.0) {
+        double term = 1.0 / s, sum = term;
+        for (int n = 1; n < 100000 && std::abs(term) > std::abs(sum) * eps; ++n) {
+            term *= x / (s + n);
+            sum += term;
+        }
+        return 1.0 - sum * std::exp(logPrefactor);
+    }
+    double b = x + 1.0 - s, c = 1.0 / tiny, d = 1.0 / b, h = d;
+    for (int i = 1; i < 100000; ++i) {
+        const double an = -i * (i - s);
+        b += 2.0;
+        d = an * d + b;
+        if (std::abs(d) < tiny) d = tiny;
+        c = b + an / c;
+        if (std::abs(c) < tiny) c = tiny;
+        d = 1.0 / d;
+        const double delta = d * c;
+        h *= delta;
+        if (std::abs(delta - 1.0) < eps) break;
+    }
+    return std::exp(logPrefactor) * h;
+}
+
+// P(χ²_k > x).
+inline double chiSquaredSurvival(int k, double x) { return regularizedGammaQ(0.5 * k, 0.5 * x); }
+
+// x with P(χ²_k > x) = alpha (upper critical value), by bisection on the monotone survival function.
+inline double chiSquaredUpperCritical(int k, double alpha) {
+    double lo = 0.0, hi = k + 10.0;
+    while (chiSquaredSurvival(k, hi) > alpha) hi *= 2.0;
+    for (int i = 0; i < 200; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (chiSquaredSurvival(k, mid) > alpha ? lo : hi) = mid;
+    }
+    return 0.5 * (lo + hi);
+}
+
+// x with P(χ²_k < x) = alpha (lower critical value).
+inline double chiSquaredLowerCritical(int k, double alpha) { return chiSquaredUpperCritical(k, 1.0 - alpha); }
+
+// z with P(|Z| > z) = alpha for a standard normal Z, by bisection on erfc.
+inline double normalTwoSidedCritical(double alpha) {
+    double lo = 0.0, hi = 40.0;
+    for (int i = 0; i < 200; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (std::erfc(mid / std::sqrt(2.0)) > alpha ? lo : hi) = mid;
+    }
+    return 0.5 * (lo + hi);
+}
+
+// Pearson's statistic Σ (observed − expected)² / expected.
+inline double pearsonChiSquared(const std::vector<long>& observed, const std::vector<double>& expected) {
+    double chi2 = 0.0;
+    for (size_t i = 0; i < observed.size(); ++i) {
+        const double d = static_cast<double>(observed[i]) - expected[i];
+        chi2 += d * d / expected[i];
+    }
+    return chi2;
+}
 
 }  // namespace flare::test
