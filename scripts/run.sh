@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Set-up if needed, build, and run the main job on the embedded default scene (a sun 13.5° off
 # axis through the 50 mm double Gauss at f/4): the per-ghost table, the noise-free flare preview
-# (layered EXR and PNG) and a cutaway drawing of the lens. Prints where the output went.
+# (layered EXR and PNG), the physically based photon render (layered EXR, PNG and a JSON report
+# with per-ghost power and standard errors) and a cutaway drawing of the lens. Prints where the
+# output went.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
@@ -11,11 +13,16 @@ build/src/flare ghosts docs/examples/default.json > out/default-ghosts.txt
 sed -n '1,20p' out/default-ghosts.txt
 build/src/flare ghosts docs/examples/default.json --json > out/default-ghosts.json
 build/src/flare preview -o out/default.exr --png out/default.png
+build/src/flare render -o out/default-render.exr --png out/default-render.png --report out/default-render.json
 build/src/flare lens draw double-gauss-50mm -o out/double-gauss-50mm.svg --rays 11
 echo
 echo "output in $(pwd)/out:"
 echo "  default.exr          preview, linear Rec.709 (add --layers for direct, ghost and one layer per ghost)"
 echo "  default.png          tone-mapped preview"
+echo "  default-render.exr   photon render (guided, 10 M photons): main image and the layers"
+echo "                       direct, ghost, higher, scatter and variance"
+echo "  default-render.png   tone-mapped render"
+echo "  default-render.json  render report: per-ghost power with standard errors, layers, energy"
 echo "  default-ghosts.txt   per-ghost table (paraxial ghost focus, power, footprint)"
 echo "  default-ghosts.json  the same as JSON"
 echo "  double-gauss-50mm.svg  lens cutaway with ray fans"

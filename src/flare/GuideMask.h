@@ -18,7 +18,16 @@ namespace flare {
 class GuideMask {
 public:
     GuideMask() = default;
+    // The region's live cells as they are.
     explicit GuideMask(const LivePupilRegion& region);
+    // Re-traces the centre of every cell of the region's grid, extended by `growCells` on each
+    // side, through the path (at one wavelength): a cell is live when its ray survives the path
+    // and lands within `sensorMarginMm` of the sensor. The analysis's region asks for a landing on
+    // the sensor itself; other wavelengths and the light's angular size move landings by a
+    // fraction of a millimetre, so a mask that stopped at the sensor's edge would leave the rays
+    // just outside it to the unguided tracer, where each is a rare, heavy sample.
+    static GuideMask traced(const LensSystem& lens, const SpectralIndices& indices, const PupilGrid& grid,
+                            const GhostPath& path, const LivePupilRegion& region, int growCells, double sensorMarginMm);
 
     bool empty() const { return cells_.empty(); }
     double areaMm2() const { return areaMm2_; }
@@ -39,6 +48,8 @@ public:
     }
 
 private:
+    void grow(const std::vector<std::uint8_t>& live, int cellsA, int cellsB, double aMinMm, double bMinMm, double cellMm);
+
     double aMinMm_ = 0.0, bMinMm_ = 0.0, cellMm_ = 1.0;
     int cellsA_ = 0, cellsB_ = 0;
     std::vector<std::uint8_t> live_;

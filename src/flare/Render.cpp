@@ -32,6 +32,11 @@ const char* renderLayerName(int layer) {
 namespace {
 
 constexpr double kMm2PerM2 = 1e6;
+// Guide masks reach this far beyond the analysed live region (cells) and beyond the sensor (a
+// fraction of its half-diagonal): dispersion across the visible and the sun's 0.5° move a
+// ghost's landings by up to about a millimetre on a full-frame sensor.
+constexpr int kGuideGrowCells = 4;
+constexpr double kGuideSensorMargin = 0.1;
 
 struct Hit {
     float xMm, yMm;
@@ -132,9 +137,16 @@ Renderer::Renderer(const LensSystem& lens, const Scene& scene, const RenderOptio
         state.masks.resize(state.slots);
         state.ghostLayer.assign(state.slots, -1);
         if (options.mode == RenderOptions::Mode::Guided && !plan.skipped) {
-            state.masks[0] = GuideMask(report.direct.pupil);
-            for (size_t g = 0; g < report.ghosts.size(); ++g)
-                if (!report.ghosts[g].pruned) state.masks[g + 1] = GuideMask(report.ghosts[g].pupil);
+            // Guide masks: the analysed regions re-traced with a margin around the sensor (see
+            // GuideMask::traced), in parallel over paths; each mask is a pure function of its path.
+            const SpectralIndices indices = lens.indicesAt(options.analysis.wavelengthNm);
+            const double marginMm = kGuideSensorMargin * lens.sensorHalfDiagonalMm();
+            tbb::parallel_for(0, state.slots, [&](int slot) {
+                const GhostEstimate& estimate = slot == 0 ? report.direct : report.ghosts[slot - 1];
+                if (slot > 0 && estimate.pruned) return;
+                state.masks[slot] = GuideMask::traced(lens, indices, report.grid, estimate.path, estimate.pupil,
+                                                      kGuideGrowCells, marginMm);
+            });
         }
         for (size_t g = 0; g < report.ghosts.size(); ++g) {
             if (report.ghosts[g].pruned) {
