@@ -146,6 +146,10 @@ int run(const RenderCommandOptions& o) {
     if (o.threads > 0)
         threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, o.threads);
 
+    // Ctrl-C from here on ends the current pass and writes a checkpoint (before the first pass it
+    // simply ends the render: there is nothing to save yet).
+    gInterrupted.store(false);
+    auto previous = std::signal(SIGINT, onInterrupt);
     const Scene scene = o.scene.empty() ? defaultScene() : loadScene(o.scene);
     const LensSystem lens = buildSceneLens(scene);
 
@@ -183,8 +187,6 @@ int run(const RenderCommandOptions& o) {
     // At least two passes, so that the variance estimate exists.
     const std::int64_t passesWanted = o.timeS > 0.0 ? 0 : std::max<std::int64_t>(2, (target + perPass - 1) / perPass);
 
-    gInterrupted.store(false);
-    auto previous = std::signal(SIGINT, onInterrupt);
     const auto start = std::chrono::steady_clock::now();
     auto lastCheckpoint = start;
     auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
@@ -192,6 +194,11 @@ int run(const RenderCommandOptions& o) {
     for (;;) {
         const int done = renderer.statistics().passes;
         if (o.timeS > 0.0 ? (elapsed() >= o.timeS && done >= 2) : done >= passesWanted) break;
+        if (gInterrupted.load() && done == 0) {
+            std::signal(SIGINT, previous);
+            std::fprintf(stderr, "interrupted before the first pass: nothing written\n");
+            return 130;
+        }
         renderer.runPass();
         if (!o.quiet) printProgress(renderer, passesWanted * perPass, o.timeS, elapsed());
         if (gInterrupted.load()) {
