@@ -180,17 +180,23 @@ void Film::splat(int layer, const glm::dvec2& sensorMm, const glm::dvec3& xyzPow
 
 void Film::endPass(std::int64_t photons) {
     const double scale = 1.0 / (static_cast<double>(photons) * pixelMm_ * pixelMm_ / kMm2PerM2);
-    for (int y = 0; y < settings_.heightPx; ++y)
-        for (int x = 0; x < settings_.widthPx; ++x) {
-            const double* p = pass_->find(x, y);
-            if (!p) continue;
-            const glm::dvec3 rgb = xyzToLinearSrgb(glm::dvec3(p[0], p[1], p[2]) * scale);
-            double* s = sumPasses_->at(x, y);
-            double* q = sumSquares_->at(x, y);
-            for (int c = 0; c < 3; ++c) {
-                s[c] += rgb[c];
-                q[c] += rgb[c] * rgb[c];
-            }
+    // Only the tiles this pass touched (a tile's pixels are contiguous in it).
+    for (int ty = 0; ty < pass_->tilesY; ++ty)
+        for (int tx = 0; tx < pass_->tilesX; ++tx) {
+            if (!pass_->tiles[static_cast<size_t>(ty) * pass_->tilesX + tx]) continue;
+            const int x1 = std::min((tx + 1) * kTilePx, settings_.widthPx);
+            const int y1 = std::min((ty + 1) * kTilePx, settings_.heightPx);
+            for (int y = ty * kTilePx; y < y1; ++y)
+                for (int x = tx * kTilePx; x < x1; ++x) {
+                    const double* p = pass_->find(x, y);
+                    const glm::dvec3 rgb = xyzToLinearSrgb(glm::dvec3(p[0], p[1], p[2]) * scale);
+                    double* s = sumPasses_->at(x, y);
+                    double* q = sumSquares_->at(x, y);
+                    for (int c = 0; c < 3; ++c) {
+                        s[c] += rgb[c];
+                        q[c] += rgb[c] * rgb[c];
+                    }
+                }
         }
     pass_->clear();
     counts_ = pendingCounts_;
