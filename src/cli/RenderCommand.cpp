@@ -36,7 +36,7 @@ struct RenderCommandOptions {
     long long seed = -1;     // −1: the scene's
     int threads = 0;
     double checkpointIntervalS = 60.0;
-    double interiorAlbedo = 0.0;
+    double interiorAlbedo = -1.0;  // < 0: the scene's finishes
     bool layers = false;
     bool quiet = false;
 };
@@ -92,6 +92,17 @@ nlohmann::json reportJson(const Renderer& renderer, const Scene& scene, const Le
     for (const PathTally& t : renderer.layerTallies())
         layers[kindName(t.kind)] = {{"power_w", renderer.tallyPowerW(t)}, {"standard_error_w", renderer.tallyStandardErrorW(t)}};
     j["layers"] = layers;
+    nlohmann::json sources;
+    for (size_t i = 0; i < renderer.scatterSourceTallies().size(); ++i) {
+        const PathTally& t = renderer.scatterSourceTallies()[i];
+        sources[toString(static_cast<ScatterSource>(i + 1))] = {{"power_w", renderer.tallyPowerW(t)},
+                                                                {"standard_error_w", renderer.tallyStandardErrorW(t)}};
+    }
+    j["scatter_sources"] = sources;
+    const double collisions = static_cast<double>(s.nullCollisions + s.realCollisions);
+    j["delta_tracking"] = {{"real_collisions", s.realCollisions},
+                           {"null_collisions", s.nullCollisions},
+                           {"null_collision_ratio", collisions > 0.0 ? s.nullCollisions / collisions : 0.0}};
 
     std::vector<const PathTally*> ghosts;
     for (const PathTally& t : renderer.tallies())
@@ -162,7 +173,11 @@ int run(const RenderCommandOptions& o) {
     options.analysis.includeSensor = scene.render.includeSensorGhosts;
     options.analysis.keepShare = scene.render.pruneKeepShare;
     options.analysis.relativeThreshold = scene.render.pruneRelativeThreshold;
-    options.materials = {o.interiorAlbedo, o.interiorAlbedo, o.interiorAlbedo};
+    applySceneScattering(scene, lens, options);
+    if (o.interiorAlbedo >= 0.0) {
+        options.materials.housingAlbedo = options.materials.edgeAlbedo = options.materials.irisAlbedo = o.interiorAlbedo;
+        options.materials.housingGlossy = options.materials.edgeGlossy = options.materials.irisGlossy = 0.0;
+    }
     options.film.widthPx = scene.sensor.widthPx;
     options.film.heightPx = scene.sensor.heightPx;
     options.film.widthMm = lens.sensor().widthMm;
@@ -293,7 +308,7 @@ void addRenderCommand(CLI::App& app) {
     render->add_option("--radius", o->radiusPx, "kernel radius in pixels (fixed; first pass for progressive)")
         ->check(CLI::PositiveNumber);
     render->add_option("--interior-albedo", o->interiorAlbedo,
-                       "diffuse albedo of the barrel, element edges and iris blades (default 0: black)")
+                       "diffuse albedo of the barrel, element edges and iris blades, overriding the scene's finishes")
         ->check(CLI::Range(0.0, 1.0));
     render->add_flag("--quiet", o->quiet, "no progress or statistics on stderr");
     render->callback([o] {

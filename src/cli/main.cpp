@@ -10,6 +10,7 @@
 #include "LensCommands.h"
 #include "PreviewCommand.h"
 #include "RenderCommand.h"
+#include "VolumeCommand.h"
 #include "flare/Error.h"
 
 int main(int argc, char** argv) {
@@ -20,6 +21,7 @@ int main(int argc, char** argv) {
     flare::cli::addPreviewCommand(app);
     flare::cli::addRenderCommand(app);
     flare::cli::addCompareCommand(app);
+    flare::cli::addVolumeCommands(app);
     try {
         app.parse(argc, argv);
     } catch (const CLI::RuntimeError& e) {

@@ -3,12 +3,16 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 #include <numbers>
+#include <optional>
 
 #include <glm/geometric.hpp>
 
 #include "flare/Fresnel.h"
+#include "flare/Phase.h"
 #include "flare/SequentialTracer.h"
+#include "flare/VolumeGrid.h"
 
 namespace flare {
 
@@ -27,10 +31,25 @@ const char* toString(PhotonFate fate) {
         case PhotonFate::AbsorbedHousing: return "absorbed_housing";
         case PhotonFate::AbsorbedEdge: return "absorbed_edge";
         case PhotonFate::AbsorbedIris: return "absorbed_iris";
+        case PhotonFate::AbsorbedDust: return "absorbed_dust";
+        case PhotonFate::AbsorbedGrease: return "absorbed_grease";
+        case PhotonFate::AbsorbedBulk: return "absorbed_bulk";
         case PhotonFate::BounceLimit: return "bounce_limit";
         case PhotonFate::EventLimit: return "event_limit";
         case PhotonFate::Lost: return "lost";
         case PhotonFate::Count: break;
+    }
+    return "?";
+}
+
+const char* toString(ScatterSource source) {
+    switch (source) {
+        case ScatterSource::None: return "none";
+        case ScatterSource::Housing: return "housing";
+        case ScatterSource::Dust: return "dust";
+        case ScatterSource::Grease: return "grease";
+        case ScatterSource::Bulk: return "bulk";
+        case ScatterSource::Count: break;
     }
     return "?";
 }
@@ -61,20 +80,24 @@ double cylinderExit(const Ray& ray, double radiusMm) {
     return b <= 0.0 ? (s - b) / a : -c / (b + s);
 }
 
-// Cosine-weighted direction about the unit normal n.
-glm::dvec3 lambertian(const glm::dvec3& n, double u1, double u2) {
-    const glm::dvec3 helper = std::abs(n.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
-    const glm::dvec3 t1 = glm::normalize(glm::cross(helper, n));
-    const glm::dvec3 t2 = glm::cross(n, t1);
-    const double r = std::sqrt(u1), phi = 2.0 * std::numbers::pi * u2;
-    return glm::normalize(r * std::cos(phi) * t1 + r * std::sin(phi) * t2 + std::sqrt(std::max(0.0, 1.0 - u1)) * n);
-}
 
 }  // namespace
 
-PhotonTracer::PhotonTracer(const LensSystem& lens, const InteriorMaterials& materials, int maxBounces)
-    : lens_(&lens), materials_(materials), maxBounces_(maxBounces) {
+PhotonTracer::PhotonTracer(const LensSystem& lens, const InteriorMaterials& materials, int maxBounces,
+                           std::vector<SurfaceContamination> contamination, std::vector<BulkMedium> media)
+    : lens_(&lens), materials_(materials), maxBounces_(maxBounces), contamination_(std::move(contamination)),
+      media_(std::move(media)) {
     const int n = lens.surfaceCount();
+    if (!contamination_.empty() && static_cast<int>(contamination_.size()) != n)
+        throw std::invalid_argument("PhotonTracer: one contamination entry per surface");
+    for (const SurfaceContamination& c : contamination_) hasContamination_ = hasContamination_ || c.any();
+    mediumOfCell_.assign(n + 1, -1);
+    for (size_t m = 0; m < media_.size(); ++m) {
+        const int cell = media_[m].cell;
+        if (cell < 1 || cell >= n || lens.mediumBefore(cell).isAir() || mediumOfCell_[cell] >= 0)
+            throw std::invalid_argument("PhotonTracer: a bulk medium must fill one glass element");
+        mediumOfCell_[cell] = static_cast<int>(m);
+    }
     cells_.resize(n + 1);
     rims_.resize(n);
     const auto housing = lens.housing();
@@ -100,7 +123,28 @@ PhotonTracer::PhotonTracer(const LensSystem& lens, const InteriorMaterials& mate
     }
 }
 
+PhotonTracer::~PhotonTracer() = default;
+
+std::unique_ptr<PhotonTracer::Scratch> PhotonTracer::makeScratch() const {
+    auto scratch = std::make_unique<Scratch>();
+    for (const BulkMedium& m : media_)
+        scratch->samplers.push_back(m.grid ? std::optional<VolumeGrid::Sampler>(m.grid->sampler()) : std::nullopt);
+    return scratch;
+}
+
+double PhotonTracer::scatteringPerMm(const BulkMedium& medium, double wavelengthNm) const {
+    if (!medium.rayleigh) return medium.scatteringPerMm;
+    const double ratio = medium.referenceWavelengthNm / wavelengthNm;
+    return medium.scatteringPerMm * ratio * ratio * ratio * ratio;
+}
+
 void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& rng, PhotonHistory& h) const {
+    const std::unique_ptr<Scratch> scratch = makeScratch();
+    trace(indices, start, rng, h, *scratch);
+}
+
+void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& rng, PhotonHistory& h,
+                         Scratch& scratch) const {
     const LensSystem& lens = *lens_;
     const int n = lens.surfaceCount();
     h = PhotonHistory{};
@@ -109,6 +153,12 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
     int onSurface = -1;  // the surface the photon stands on, if any
     PathKey key = 0;
     bool scattered = false;
+    ScatterSource firstScatter = ScatterSource::None;
+    auto markScattered = [&](ScatterSource source) {
+        if (!scattered) firstScatter = source;
+        scattered = true;
+        ++h.scatters;
+    };
 
     // Appends a specular reflection at `surface` (n: the sensor); false if the limit stops it.
     auto addReflection = [&](int surface) {
@@ -122,13 +172,21 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
         }
         return true;
     };
-    // A diffuse bounce off the interior with probability `albedo` (analog absorption otherwise).
-    auto scatterOff = [&](double albedo, const glm::dvec3& normalTowardsPhoton) {
-        if (albedo <= 0.0 || rng.uniform() >= albedo) return false;
+    // A bounce off the interior: diffuse with probability `diffuse`, glossy (Phong lobe about the
+    // mirror direction) with probability `glossy`, else absorbed (analog).
+    auto scatterOff = [&](double diffuse, double glossy, const glm::dvec3& normalTowardsPhoton) {
+        if (diffuse <= 0.0 && glossy <= 0.0) return false;
+        const double u = rng.uniform();
+        if (u >= diffuse + glossy) return false;
         const double u1 = rng.uniform(), u2 = rng.uniform();
-        ray.direction = lambertian(normalTowardsPhoton, u1, u2);
-        scattered = true;
-        ++h.scatters;
+        if (u < diffuse) {
+            ray.direction = sampleCosineHemisphere(normalTowardsPhoton, u1, u2);
+        } else {
+            const glm::dvec3 mirror = glm::normalize(reflect(ray.direction, normalTowardsPhoton));
+            ray.direction = samplePowerCosine(mirror, materials_.glossExponent, u1, u2);
+            if (glm::dot(ray.direction, normalTowardsPhoton) <= 0.0) return false;  // into the paint
+        }
+        markScattered(ScatterSource::Housing);
         return true;
     };
 
@@ -188,6 +246,40 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
             h.fate = cell == 0 ? PhotonFate::Escaped : PhotonFate::Lost;
             return;
         }
+        if (const int m = mediumOfCell_[cell]; m >= 0) {
+            // Delta tracking to the boundary against the majorant σ̄ = (σs + σa) · max density.
+            const BulkMedium& medium = media_[m];
+            const double sigmaS = scatteringPerMm(medium, indices.wavelengthNm);
+            const double sigmaT = sigmaS + medium.absorptionPerMm;
+            const double majorant = sigmaT * (medium.grid ? medium.grid->maxValue() : 1.0);
+            const double zFront = lens.surface(cell - 1).vertexZMm;
+            bool collided = false;
+            for (double t = 0.0; majorant > 0.0;) {
+                t -= std::log(1.0 - rng.uniform()) / majorant;
+                if (t >= best) break;
+                const glm::dvec3 p = ray.at(t);
+                const double density =
+                    medium.grid ? scratch.samplers[m]->densityAt({p.x, p.y, p.z - zFront}) : 1.0;
+                if (rng.uniform() * majorant >= sigmaT * density) {
+                    ++h.nullCollisions;
+                    continue;
+                }
+                ++h.realCollisions;
+                ++h.events;
+                ray.originMm = p;
+                onSurface = -1;
+                if (rng.uniform() * sigmaT >= sigmaS) {
+                    h.fate = PhotonFate::AbsorbedBulk;
+                    return;
+                }
+                const double u1 = rng.uniform(), u2 = rng.uniform();
+                ray.direction = sampleHenyeyGreenstein(ray.direction, medium.g, u1, u2);
+                markScattered(ScatterSource::Bulk);
+                collided = true;
+                break;
+            }
+            if (collided) continue;
+        }
         ++h.events;
         const glm::dvec3 p = ray.at(best);
         ray.originMm = p;
@@ -195,7 +287,8 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
 
         if (kind == Kind::Wall) {
             const bool edge = cells_[cell].glass;
-            if (!scatterOff(edge ? materials_.edgeAlbedo : materials_.housingAlbedo, wallNormal)) {
+            if (!scatterOff(edge ? materials_.edgeAlbedo : materials_.housingAlbedo,
+                            edge ? materials_.edgeGlossy : materials_.housingGlossy, wallNormal)) {
                 h.fate = edge ? PhotonFate::AbsorbedEdge : PhotonFate::AbsorbedHousing;
                 return;
             }
@@ -205,7 +298,7 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
         if (kind == Kind::SensorPlane) {
             const bool onSensor = std::abs(p.x) <= 0.5 * lens.sensor().widthMm && std::abs(p.y) <= 0.5 * lens.sensor().heightMm;
             if (!onSensor) {  // the camera body around the sensor
-                if (!scatterOff(materials_.housingAlbedo, {0.0, 0.0, -1.0})) {
+                if (!scatterOff(materials_.housingAlbedo, materials_.housingGlossy, {0.0, 0.0, -1.0})) {
                     h.fate = PhotonFate::AbsorbedHousing;
                     return;
                 }
@@ -215,7 +308,7 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
                 h.fate = PhotonFate::EventLimit;
                 return;
             }
-            h.arrivals[h.arrivalCount++] = {{p.x, p.y}, key, scattered};
+            h.arrivals[h.arrivalCount++] = {{p.x, p.y}, key, scattered, firstScatter};
             if (rng.uniform() >= lens.sensor().reflectance) {
                 h.fate = PhotonFate::AbsorbedSensor;
                 return;
@@ -240,7 +333,7 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
                 cell = other;
                 continue;
             }
-            if (!scatterOff(materials_.irisAlbedo, towardsPhoton)) {
+            if (!scatterOff(materials_.irisAlbedo, materials_.irisGlossy, towardsPhoton)) {
                 h.fate = PhotonFate::AbsorbedIris;
                 return;
             }
@@ -250,7 +343,7 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
             // Outside the clear aperture the surface is covered by its retaining ring.
             glm::dvec3 normal = surface.normalAt(p);
             if (glm::dot(normal, ray.direction) > 0.0) normal = -normal;
-            if (!scatterOff(materials_.housingAlbedo, normal)) {
+            if (!scatterOff(materials_.housingAlbedo, materials_.housingGlossy, normal)) {
                 h.fate = PhotonFate::AbsorbedHousing;
                 return;
             }
@@ -263,7 +356,46 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
             cell = other;
             continue;
         }
-        const glm::dvec3 normal = surface.normalAt(p);
+        glm::dvec3 normal = surface.normalAt(p);
+        glm::dvec3 roughTowards(0.0);  // set when a grease facet replaces the surface normal
+        if (hasContamination_ && contamination_[k].any()) {
+            const SurfaceContamination& c = contamination_[k];
+            if (c.dustCoverage > 0.0 && rng.uniform() < c.dustCoverage) {
+                if (rng.uniform() >= c.dustAlbedo) {
+                    h.fate = PhotonFate::AbsorbedDust;
+                    return;
+                }
+                const double u1 = rng.uniform(), u2 = rng.uniform(), u3 = rng.uniform(), u4 = rng.uniform();
+                if (u1 < 0.5) {
+                    // Diffraction by a particle of diameter d: a forward lobe ~0.42 λ/d wide
+                    // (the Gaussian fit of the Airy core), d log-normal about the median.
+                    const double gauss = std::sqrt(-2.0 * std::log(1.0 - u2)) * std::cos(2.0 * std::numbers::pi * u3);
+                    const double diameterNm = 1e3 * c.dustDiameterUm * std::exp(c.dustDiameterSigma * gauss);
+                    const double sigmaRad = 0.42 * indices.wavelengthNm / diameterNm;
+                    const double theta = std::min(sigmaRad * std::sqrt(-2.0 * std::log(1.0 - u4)), std::numbers::pi);
+                    ray.direction = directionAround(ray.direction, std::cos(theta), 2.0 * std::numbers::pi * rng.uniform());
+                } else {
+                    ray.direction = sampleHenyeyGreenstein(ray.direction, 0.6, u2, u3);
+                }
+                markScattered(ScatterSource::Dust);
+                // The particle sits on the surface: the scattered light meets the interface now
+                // if it still heads into it, else it leaves back into this cell.
+                if ((glm::dot(normal, ray.direction) > 0.0) != forward) continue;
+            }
+            if (c.greaseCoverage > 0.0 && rng.uniform() < c.greaseCoverage) {
+                // A rough patch: the photon meets a GGX microfacet instead of the smooth surface.
+                // Facets seen from behind (steep facets at grazing light) are left out: the
+                // photon then meets the smooth surface, a small bias towards the smooth surface.
+                const glm::dvec3 towards = glm::dot(normal, ray.direction) < 0.0 ? normal : -normal;
+                const double u1 = rng.uniform(), u2 = rng.uniform();
+                const glm::dvec3 facet = sampleGgxNormal(towards, c.greaseRoughness, u1, u2);
+                if (glm::dot(facet, ray.direction) < 0.0) {
+                    normal = facet;
+                    roughTowards = towards;
+                    markScattered(ScatterSource::Grease);
+                }
+            }
+        }
         const double cosThetaI = std::min(1.0, std::abs(glm::dot(normal, ray.direction)));
         const FresnelTerms response = interfaceResponse(lens, indices, k, forward ? 1 : -1, cosThetaI);
         const double reflectance = response.totalInternalReflection ? 1.0 : response.reflectance();
@@ -274,13 +406,56 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
                 return;
             }
             ray.direction = glm::normalize(reflect(ray.direction, normal));
+            if (glm::dot(ray.direction, roughTowards) < 0.0) {  // a facet sent it into the surface
+                h.fate = PhotonFate::AbsorbedGrease;
+                return;
+            }
             continue;
+        }
+        if (glm::dot(refracted, roughTowards) > 0.0) {  // refracted back out of the facet's surface
+            h.fate = PhotonFate::AbsorbedGrease;
+            return;
         }
         ray.direction = refracted;
         if (k == 0 && forward) h.entered = true;
         cell = other;
     }
     h.fate = PhotonFate::EventLimit;
+}
+
+double PhotonTracer::clearTransmittance(const std::vector<glm::dvec3>& points, const std::vector<int>& surfaces,
+                                       double wavelengthNm, Rng& rng, Scratch& scratch) const {
+    const int n = lens_->surfaceCount();
+    double transmittance = 1.0;
+    for (size_t i = 0; i < surfaces.size(); ++i) {
+        const int k = surfaces[i];
+        if (hasContamination_ && k >= 0 && k < n && !lens_->surface(k).isStop) {
+            const SurfaceContamination& c = contamination_[k];
+            transmittance *= (1.0 - c.dustCoverage) * (1.0 - c.greaseCoverage);
+        }
+        if (media_.empty() || i == 0) continue;
+        // The segment from the previous event lies in the cell between the two surfaces.
+        const int cell = std::max(surfaces[i - 1], k);
+        const int m = cell >= 0 && cell <= n ? mediumOfCell_[cell] : -1;
+        if (m < 0) continue;
+        // Ratio tracking: tentative collisions at the majorant's rate, each multiplying by the
+        // probability that it was a null collision.
+        const BulkMedium& medium = media_[m];
+        const double sigmaT = scatteringPerMm(medium, wavelengthNm) + medium.absorptionPerMm;
+        const double majorant = sigmaT * (medium.grid ? medium.grid->maxValue() : 1.0);
+        if (majorant <= 0.0) continue;
+        const glm::dvec3 from = points[i - 1], to = points[i];
+        const double length = glm::length(to - from);
+        const glm::dvec3 direction = (to - from) / length;
+        const double zFront = lens_->surface(cell - 1).vertexZMm;
+        for (double t = -std::log(1.0 - rng.uniform()) / majorant; t < length;
+             t -= std::log(1.0 - rng.uniform()) / majorant) {
+            const glm::dvec3 p = from + t * direction;
+            const double density = medium.grid ? scratch.samplers[m]->densityAt({p.x, p.y, p.z - zFront}) : 1.0;
+            transmittance *= 1.0 - sigmaT * density / majorant;
+        }
+    }
+    return transmittance;
 }
 
 }  // namespace flare

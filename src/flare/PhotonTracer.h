@@ -19,6 +19,8 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
+#include <optional>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -26,16 +28,54 @@
 #include "flare/LensSystem.h"
 #include "flare/Random.h"
 #include "flare/Ray.h"
+#include "flare/VolumeGrid.h"
 
 namespace flare {
 
-// Diffuse (Lambertian) albedo of the lens's inner parts; 0 is perfectly black. A photon that
-// scatters off one of them is marked scattered and lands in the `scatter` layer.
+// How the lens's inner parts reflect: a Lambertian part (albedo) plus a glossy Phong lobe about the
+// mirror direction (its share and exponent); the rest is absorbed. 0, 0 is perfectly black. A
+// photon that scatters off one of them is marked scattered and lands in the `scatter` layer.
 struct InteriorMaterials {
     double housingAlbedo = 0.0;  // barrel walls, retaining rings, the camera body around the sensor
     double edgeAlbedo = 0.0;     // ground element edges (inside the glass)
     double irisAlbedo = 0.0;     // iris blades
+    double housingGlossy = 0.0, edgeGlossy = 0.0, irisGlossy = 0.0;
+    double glossExponent = 30.0;
 };
+
+// Contamination of one surface (both default off). Dust: a share `dustCoverage` of the surface is
+// covered by particles, so light crossing or reflecting there meets one with that probability; a
+// particle scatters the share dustAlbedo (half by diffraction into a narrow forward lobe of angular
+// width ~0.42 λ/d for its diameter d, drawn log-normally about dustDiameterUm; half by refraction
+// and reflection into a broad Henyey–Greenstein lobe, g = 0.6) and absorbs the rest. Grease: on a
+// share `greaseCoverage` of the surface the interface is rough, a GGX microfacet surface of
+// roughness greaseRoughness whose facets reflect and refract with the Fresnel/coating factors.
+struct SurfaceContamination {
+    double dustCoverage = 0.0;
+    double dustAlbedo = 0.5;
+    double dustDiameterUm = 20.0;
+    double dustDiameterSigma = 0.5;  // of ln(diameter)
+    double greaseCoverage = 0.0;
+    double greaseRoughness = 0.1;
+    bool any() const { return dustCoverage > 0.0 || greaseCoverage > 0.0; }
+};
+
+// Bulk scattering inside one glass element: scattering and absorption coefficients (per mm) times
+// a relative density, 1 everywhere (homogeneous) or from an OpenVDB grid placed in the element's
+// frame (millimetres, x and y as in the lens, z from the element's front vertex).
+struct BulkMedium {
+    int cell = -1;                    // the element: cell g lies between surfaces g − 1 and g
+    double scatteringPerMm = 0.0;     // σs at referenceWavelengthNm
+    bool rayleigh = false;            // σs ∝ λ⁻⁴ (scatterers much smaller than the wavelength)
+    double referenceWavelengthNm = 550.0;
+    double absorptionPerMm = 0.0;     // σa (not wavelength dependent)
+    double g = 0.0;                   // Henyey–Greenstein mean cosine
+    std::shared_ptr<const VolumeGrid> grid;  // null: homogeneous
+};
+
+// What a scattered photon met first, for the report's split of the `scatter` layer.
+enum class ScatterSource : std::uint8_t { None, Housing, Dust, Grease, Bulk, Count };
+const char* toString(ScatterSource source);
 
 // Reflection sequence of a path as one integer: the count in the top byte and up to 7 surface
 // indices (0-based; surfaceCount = the sensor) one byte each. Longer sequences share kLongPathKey.
@@ -50,6 +90,9 @@ enum class PhotonFate : std::uint8_t {
     AbsorbedHousing,  // barrel, rings, camera body
     AbsorbedEdge,     // ground element edge
     AbsorbedIris,     // iris blades
+    AbsorbedDust,     // by a dust particle
+    AbsorbedGrease,   // sent by a grease microfacet into the surface it sits on
+    AbsorbedBulk,     // inside the glass (a bulk medium's absorption)
     BounceLimit,      // stopped by the optional reflection limit
     EventLimit,       // stopped after kMaxPhotonEvents events (a trapped photon)
     Lost,             // no boundary found (a numerical failure; counted, never expected)
@@ -64,7 +107,8 @@ inline constexpr int kMaxSensorArrivals = 16;
 struct SensorArrival {
     glm::dvec2 positionMm{0.0};  // lens space, on the sensor
     PathKey key = 0;             // reflection sequence so far
-    bool scattered = false;      // met a diffuse wall on the way
+    bool scattered = false;      // met a wall, dust, grease or the bulk on the way
+    ScatterSource firstScatter = ScatterSource::None;
 };
 
 struct PhotonHistory {
@@ -73,6 +117,7 @@ struct PhotonHistory {
     int reflections = 0;   // specular reflections, including total internal ones and the sensor's
     int scatters = 0;      // diffuse bounces off the interior
     int events = 0;        // every boundary met
+    int nullCollisions = 0, realCollisions = 0;  // delta tracking in bulk media
     int arrivalCount = 0;
     std::array<SensorArrival, kMaxSensorArrivals> arrivals;
 };
@@ -80,12 +125,31 @@ struct PhotonHistory {
 class PhotonTracer {
 public:
     // maxBounces < 0: unbounded. Otherwise a photon about to make reflection maxBounces + 1 stops
-    // (fate BounceLimit): the thesis compares limits of 2, 5 and 10.
-    PhotonTracer(const LensSystem& lens, const InteriorMaterials& materials, int maxBounces = -1);
+    // (fate BounceLimit): the thesis compares limits of 2, 5 and 10. `contamination` is per
+    // surface (empty: clean lens); `media` at most one per glass cell.
+    PhotonTracer(const LensSystem& lens, const InteriorMaterials& materials, int maxBounces = -1,
+                 std::vector<SurfaceContamination> contamination = {}, std::vector<BulkMedium> media = {});
+    ~PhotonTracer();
+
+    // Per-thread state for density lookups in grids: make one per batch of photons.
+    struct Scratch {
+        std::vector<std::optional<VolumeGrid::Sampler>> samplers;  // per medium with a grid
+    };
+    std::unique_ptr<Scratch> makeScratch() const;
 
     // Traces one photon from object space (the ray must start in front of the first surface).
+    void trace(const SpectralIndices& indices, const Ray& ray, Rng& rng, PhotonHistory& history, Scratch& scratch) const;
     void trace(const SpectralIndices& indices, const Ray& ray, Rng& rng, PhotonHistory& history) const;
 
+    // Probability that light following a sequential path meets no dust, grease or bulk event: the
+    // guided strategy's weight for owning only unscattered paths. `points` and `surfaces` are
+    // TraceOptions' record of the path (surface index per point, −1 the start, surfaceCount the
+    // sensor). Bulk transmittance is estimated without bias by ratio tracking (uses rng).
+    double clearTransmittance(const std::vector<glm::dvec3>& points, const std::vector<int>& surfaces,
+                              double wavelengthNm, Rng& rng, Scratch& scratch) const;
+
+    bool hasContamination() const { return hasContamination_; }
+    bool hasMedia() const { return !media_.empty(); }
     const LensSystem& lens() const { return *lens_; }
 
 private:
@@ -98,9 +162,15 @@ private:
         double zMm = 0.0;       // z of the surface at that radius: where the cell's annulus lies
     };
 
+    double scatteringPerMm(const BulkMedium& medium, double wavelengthNm) const;
+
     const LensSystem* lens_;
     InteriorMaterials materials_;
     int maxBounces_;
+    std::vector<SurfaceContamination> contamination_;  // per surface (or empty)
+    bool hasContamination_ = false;
+    std::vector<BulkMedium> media_;
+    std::vector<int> mediumOfCell_;  // index into media_ or −1, per cell
     std::vector<Cell> cells_;  // surfaceCount + 1
     std::vector<Rim> rims_;    // surfaceCount
 };

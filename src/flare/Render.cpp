@@ -16,6 +16,7 @@
 #include "flare/GuideMask.h"
 #include "flare/LightSampler.h"
 #include "flare/SequentialTracer.h"
+#include "flare/VolumeGrid.h"
 
 namespace flare {
 
@@ -68,20 +69,78 @@ struct Renderer::Component {
     double probability = 0.0;
 };
 
+constexpr int kScatterSources = static_cast<int>(ScatterSource::Count) - 1;
+
 struct Renderer::BatchResult {
     std::vector<Hit> hits;
     std::vector<double> tallySums;  // Σ Y power (W) per tally
     double layerSums[kFixedLayerCount] = {};
+    double sourceSums[kScatterSources] = {};
     RenderStatistics statistics;    // photon counts and fates of this batch
 };
 
+void applySceneScattering(const Scene& scene, const LensSystem& lens, RenderOptions& options) {
+    const ScatteringSettings& s = scene.scattering;
+    InteriorMaterials& m = options.materials;
+    m.housingAlbedo = s.housing.diffuse, m.housingGlossy = s.housing.glossy;
+    m.edgeAlbedo = s.edges.diffuse, m.edgeGlossy = s.edges.glossy;
+    m.irisAlbedo = s.iris.diffuse, m.irisGlossy = s.iris.glossy;
+    m.glossExponent = s.glossExponent;
+    const int n = lens.surfaceCount();
+    auto surfaceIndex = [&](int number, int line, const char* what) {
+        if (number > n)
+            throw InputError(scene.sourceFile, line,
+                             std::string(what) + ": surface " + std::to_string(number) + " does not exist (the lens has " +
+                                 std::to_string(n) + " surfaces, counting the stop)");
+        if (lens.surface(number - 1).isStop || !lens.isReflecting(number - 1))
+            throw InputError(scene.sourceFile, line,
+                             std::string(what) + ": surface " + std::to_string(number) +
+                                 " is not an interface between two media (the stop, or equal media)");
+        if (!lens.mediumBefore(number - 1).isAir() && !lens.mediumBefore(number).isAir())
+            throw InputError(scene.sourceFile, line,
+                             std::string(what) + ": surface " + std::to_string(number) +
+                                 " is a cemented interface (glass on both sides): nothing can settle there");
+        return number - 1;
+    };
+    options.contamination.clear();
+    if (!s.dust.empty() || !s.grease.empty()) options.contamination.assign(n, SurfaceContamination{});
+    for (const DustSpec& d : s.dust) {
+        SurfaceContamination& c = options.contamination[surfaceIndex(d.surface, d.line, "dust")];
+        c.dustCoverage = d.coverage, c.dustAlbedo = d.albedo, c.dustDiameterUm = d.diameterUm;
+        c.dustDiameterSigma = d.diameterSigma;
+    }
+    for (const GreaseSpec& g : s.grease) {
+        SurfaceContamination& c = options.contamination[surfaceIndex(g.surface, g.line, "grease")];
+        c.greaseCoverage = g.coverage, c.greaseRoughness = g.roughness;
+    }
+    options.media.clear();
+    for (const BulkSpec& b : s.bulk) {
+        if (b.element >= n || lens.mediumBefore(b.element).isAir())
+            throw InputError(scene.sourceFile, b.line,
+                             "bulk: element " + std::to_string(b.element) +
+                                 " must be the number of the first surface of a glass element (glass after it)");
+        for (const BulkMedium& other : options.media)
+            if (other.cell == b.element)
+                throw InputError(scene.sourceFile, b.line, "bulk: element " + std::to_string(b.element) + " is given twice");
+        BulkMedium medium;
+        medium.cell = b.element;  // cell g lies between surfaces g − 1 and g (0-based)
+        medium.scatteringPerMm = b.scatteringPerMm, medium.absorptionPerMm = b.absorptionPerMm;
+        medium.g = b.g, medium.rayleigh = b.rayleigh;
+        if (!b.grid.empty()) medium.grid = std::make_shared<VolumeGrid>(VolumeGrid::load(b.grid, b.gridName));
+        options.media.push_back(std::move(medium));
+    }
+}
+
 Renderer::Renderer(const LensSystem& lens, const Scene& scene, const RenderOptions& options)
-    : lens_(&lens), options_(options), indexTable_(lens), tracer_(lens, options.materials, options.maxBounces),
+    : lens_(&lens), options_(options), indexTable_(lens),
+      tracer_(lens, options.materials, options.maxBounces, options.contamination, options.media),
       film_(options.film, kFixedLayerCount) {
     for (int l = 0; l < kFixedLayerCount; ++l) layerNames_.push_back(renderLayerName(l));
     std::unordered_map<std::string, int> ghostLayerOfLabel;
-    const bool anyScattering = options.materials.housingAlbedo > 0.0 || options.materials.edgeAlbedo > 0.0 ||
-                               options.materials.irisAlbedo > 0.0;
+    const InteriorMaterials& m = options.materials;
+    const bool anyScattering = m.housingAlbedo + m.edgeAlbedo + m.irisAlbedo + m.housingGlossy + m.edgeGlossy +
+                                       m.irisGlossy > 0.0 ||
+                               tracer_.hasContamination() || tracer_.hasMedia();
 
     std::vector<double> lightWeight;
     for (const LightSpec& spec : scene.lights) {
@@ -174,6 +233,12 @@ Renderer::Renderer(const LensSystem& lens, const Scene& scene, const RenderOptio
         t.light = -1;
         layerTallies_.push_back(t);
     }
+    for (int source = 0; source < kScatterSources; ++source) {
+        PathTally t;
+        t.kind = PathTally::Kind::Scatter;
+        t.light = -1;
+        scatterSourceTallies_.push_back(t);
+    }
     if (layerNames_.size() > kFixedLayerCount) film_ = Film(options.film, static_cast<int>(layerNames_.size()));
 
     // The budget: lights in proportion to the power they send in (every photon then carries a
@@ -221,6 +286,7 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
     out.hits.clear();
     out.tallySums.assign(tallies_.size(), 0.0);
     std::fill(std::begin(out.layerSums), std::end(out.layerSums), 0.0);
+    std::fill(std::begin(out.sourceSums), std::end(out.sourceSums), 0.0);
     out.statistics = RenderStatistics{};
     RenderStatistics& stats = out.statistics;
     if (components_.empty()) {
@@ -233,6 +299,17 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
     PhotonHistory history;
     std::vector<int> noReflections;
     SequentialPath sequence;
+    const std::unique_ptr<PhotonTracer::Scratch> scratch = tracer_.makeScratch();
+    // Guided paths own only unscattered light: with dust, grease or bulk media their weight is the
+    // probability of crossing them clear, which needs the path's points.
+    const bool clearWeight = tracer_.hasContamination() || tracer_.hasMedia();
+    std::vector<glm::dvec3> pathPoints;
+    std::vector<int> pathSurfaces;
+    TraceOptions guidedOptions;
+    if (clearWeight) {
+        guidedOptions.pathPointsMm = &pathPoints;
+        guidedOptions.pathSurfaces = &pathSurfaces;
+    }
 
     auto score = [&](int layer, int ghostLayer, int tally, const glm::dvec2& sensorMm, const glm::dvec3& xyzW) {
         out.hits.push_back({static_cast<float>(sensorMm.x), static_cast<float>(sensorMm.y),
@@ -268,12 +345,16 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
             if (weight == 0.0) continue;
             sequence.reflections = component.slot == 0 ? std::span<const int>(noReflections)
                                                        : std::span<const int>(light.report.ghosts[component.slot - 1].path.reflections);
-            const TraceResult result = tracePath(lens, indices, emitted.ray, sequence);
+            pathPoints.clear();
+            pathSurfaces.clear();
+            const TraceResult result = tracePath(lens, indices, emitted.ray, sequence, guidedOptions);
             if (!result.ok()) continue;
             const glm::dvec3& p = result.ray.originMm;
             if (std::abs(p.x) > halfW || std::abs(p.y) > halfH) continue;
+            const double clear =
+                clearWeight ? tracer_.clearTransmittance(pathPoints, pathSurfaces, wavelengthNm, rng, *scratch) : 1.0;
             score(component.slot == 0 ? kLayerDirect : kLayerGhost, light.ghostLayer[component.slot],
-                  light.tallyOffset + component.slot, {p.x, p.y}, xyzWeight * (weight * result.throughput));
+                  light.tallyOffset + component.slot, {p.x, p.y}, xyzWeight * (weight * result.throughput * clear));
             continue;
         }
 
@@ -284,7 +365,9 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
         const EmittedRay emitted = light.sampler.rayThrough(a, b, uLight1, uLight2);
         const double weight = emitted.powerPerMm2 * 4.0 * half * half / component.probability;
         stats.unguidedEmittedPowerW += weight;
-        tracer_.trace(indices, emitted.ray, rng, history);
+        tracer_.trace(indices, emitted.ray, rng, history, *scratch);
+        stats.nullCollisions += history.nullCollisions;
+        stats.realCollisions += history.realCollisions;
         FateTally& fate = stats.fates[static_cast<int>(history.fate)];
         ++fate.photons;
         fate.powerW += weight;
@@ -307,6 +390,7 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
                     ghostLayer = light.ghostLayer[slot];
                 }
             }
+            if (arrival.scattered) out.sourceSums[static_cast<int>(arrival.firstScatter) - 1] += (xyzWeight * weight).y;
             score(layer, ghostLayer, tally, arrival.positionMm, xyzWeight * weight);
         }
     }
@@ -336,6 +420,11 @@ void Renderer::runPass() {
             layerTallies_[l].sumMeans += mean;
             layerTallies_[l].sumSquaredMeans += mean * mean;
         }
+        for (int source = 0; source < kScatterSources; ++source) {
+            const double mean = batch.sourceSums[source] * inverseCount;
+            scatterSourceTallies_[source].sumMeans += mean;
+            scatterSourceTallies_[source].sumSquaredMeans += mean * mean;
+        }
         const RenderStatistics& s = batch.statistics;
         statistics_.photons += s.photons;
         statistics_.guidedPhotons += s.guidedPhotons;
@@ -343,6 +432,8 @@ void Renderer::runPass() {
         statistics_.sensorHits += s.sensorHits;
         statistics_.unguidedEmittedPowerW += s.unguidedEmittedPowerW;
         statistics_.unguidedEnteredPowerW += s.unguidedEnteredPowerW;
+        statistics_.nullCollisions += s.nullCollisions;
+        statistics_.realCollisions += s.realCollisions;
         for (int f = 0; f < static_cast<int>(PhotonFate::Count); ++f) {
             statistics_.fates[f].photons += s.fates[f].photons;
             statistics_.fates[f].powerW += s.fates[f].powerW;
@@ -406,7 +497,7 @@ void Renderer::saveCheckpoint(const std::string& path) const {
         const std::uint64_t header[] = {kCheckpointMagic, fingerprint(), static_cast<std::uint64_t>(batchesDone_)};
         out.write(reinterpret_cast<const char*>(header), sizeof header);
         out.write(reinterpret_cast<const char*>(&statistics_), sizeof statistics_);
-        for (const auto* list : {&tallies_, &layerTallies_})
+        for (const auto* list : {&tallies_, &layerTallies_, &scatterSourceTallies_})
             for (const PathTally& t : *list) {
                 out.write(reinterpret_cast<const char*>(&t.sumMeans), sizeof t.sumMeans);
                 out.write(reinterpret_cast<const char*>(&t.sumSquaredMeans), sizeof t.sumSquaredMeans);
@@ -432,8 +523,8 @@ void Renderer::loadCheckpoint(const std::string& path) {
     try {
         RenderStatistics statistics;
         in.read(reinterpret_cast<char*>(&statistics), sizeof statistics);
-        std::vector<PathTally> tallies = tallies_, layerTallies = layerTallies_;
-        for (auto* list : {&tallies, &layerTallies})
+        std::vector<PathTally> tallies = tallies_, layerTallies = layerTallies_, sourceTallies = scatterSourceTallies_;
+        for (auto* list : {&tallies, &layerTallies, &sourceTallies})
             for (PathTally& t : *list) {
                 in.read(reinterpret_cast<char*>(&t.sumMeans), sizeof t.sumMeans);
                 in.read(reinterpret_cast<char*>(&t.sumSquaredMeans), sizeof t.sumSquaredMeans);
@@ -443,6 +534,7 @@ void Renderer::loadCheckpoint(const std::string& path) {
         statistics_ = statistics;
         tallies_ = std::move(tallies);
         layerTallies_ = std::move(layerTallies);
+        scatterSourceTallies_ = std::move(sourceTallies);
         batchesDone_ = static_cast<std::int64_t>(header[2]);
     } catch (const std::runtime_error& e) {
         throw InputError(path, 0, e.what());

@@ -39,6 +39,8 @@ struct RenderOptions {
     bool perGhostLayers = false;
     FilmSettings film;    // size from the scene; kernel choice
     InteriorMaterials materials;
+    std::vector<SurfaceContamination> contamination;  // per surface, or empty (clean)
+    std::vector<BulkMedium> media;
     GhostAnalysisOptions analysis;
     // Guided mode: shares of the photons given to the unguided tracer and to the direct image;
     // the rest goes to the kept ghosts in proportion to their estimated power.
@@ -49,6 +51,12 @@ struct RenderOptions {
 
     std::int64_t photonsPerPass() const { return static_cast<std::int64_t>(batchPhotons) * batchesPerPass; }
 };
+
+// Fills options.materials, .contamination and .media from the scene's "scattering" block, checking
+// it against the lens (a surface number that does not exist, dust on the stop, bulk scattering in
+// an air space: InputError naming the scene file and line) and loading the grids (errors name the
+// .vdb file).
+void applySceneScattering(const Scene& scene, const LensSystem& lens, RenderOptions& options);
 
 // Film layers of every render, in this order; per-ghost layers follow.
 enum RenderLayer : int { kLayerDirect = 0, kLayerGhost, kLayerHigher, kLayerScatter, kFixedLayerCount };
@@ -88,6 +96,7 @@ struct RenderStatistics {
     double unguidedEmittedPowerW = 0.0;  // Σ weights of the unguided photons
     double unguidedEnteredPowerW = 0.0;
     FateTally fates[static_cast<int>(PhotonFate::Count)];
+    std::int64_t nullCollisions = 0, realCollisions = 0;  // delta tracking in bulk media
 };
 
 class Renderer {
@@ -108,6 +117,9 @@ public:
     const std::vector<PathTally>& tallies() const { return tallies_; }
     // One tally per layer kind (direct, ghost, higher, scatter), summed over lights and paths.
     const std::vector<PathTally>& layerTallies() const { return layerTallies_; }
+    // The `scatter` layer split by what each path met first: housing, dust, grease, bulk
+    // (indexed by ScatterSource − 1).
+    const std::vector<PathTally>& scatterSourceTallies() const { return scatterSourceTallies_; }
     const Film& film() const { return film_; }
     // Film layer names: direct, ghost, higher, scatter, then ghost_03_07, ... (kept ghosts).
     const std::vector<std::string>& layerNames() const { return layerNames_; }
@@ -140,6 +152,7 @@ private:
     std::vector<double> componentCdf_;
     std::vector<PathTally> tallies_;
     std::vector<PathTally> layerTallies_;
+    std::vector<PathTally> scatterSourceTallies_;
     std::vector<BatchResult> batches_;  // scratch, one per batch of a pass
     std::vector<std::string> layerNames_;
     IndexTable indexTable_;

@@ -600,6 +600,86 @@ void parseRender(const Checker& c, const Node& node, RenderSettings& r) {
         r.includeSensorGhosts = c.boolean(m->value, "render.sensor_ghosts");
 }
 
+FinishSpec parseFinish(const Checker& c, const Node& node, const std::string& path) {
+    FinishSpec f;
+    c.object(node, path, {"diffuse", "glossy"});
+    if (const Member* m = Checker::find(node, "diffuse")) f.diffuse = c.numberIn(m->value, child(path, "diffuse"), 0.0, 1.0, "");
+    if (const Member* m = Checker::find(node, "glossy")) f.glossy = c.numberIn(m->value, child(path, "glossy"), 0.0, 1.0, "");
+    if (f.diffuse + f.glossy > 1.0)
+        c.fail(node.line, path, "diffuse + glossy must not exceed 1 (energy), got " + formatNumber(f.diffuse + f.glossy));
+    return f;
+}
+
+void parseScattering(const Checker& c, const Node& node, const std::string& baseDir, ScatteringSettings& s) {
+    c.object(node, "scattering", {"housing", "edges", "iris", "gloss_exponent", "dust", "grease", "bulk"});
+    if (const Member* m = Checker::find(node, "housing")) s.housing = parseFinish(c, m->value, "scattering.housing");
+    if (const Member* m = Checker::find(node, "edges")) s.edges = parseFinish(c, m->value, "scattering.edges");
+    if (const Member* m = Checker::find(node, "iris")) s.iris = parseFinish(c, m->value, "scattering.iris");
+    if (const Member* m = Checker::find(node, "gloss_exponent"))
+        s.glossExponent = c.numberIn(m->value, "scattering.gloss_exponent", 0.0, 1e5, "");
+    auto items = [&](const char* key) -> const std::vector<Node>* {
+        const Member* m = Checker::find(node, key);
+        if (!m) return nullptr;
+        if (m->value.kind != Node::Kind::Array)
+            c.fail(m->value.line, child("scattering", key), "must be an array of objects, got " + describe(m->value));
+        return &m->value.items;
+    };
+    auto surfaceNumber = [&](const Node& item, const std::string& path, const char* key) {
+        return static_cast<int>(c.integerIn(c.require(item, path, key).value, child(path, key), 1, kMaxSurfaces));
+    };
+    if (const auto* list = items("dust"))
+        for (std::size_t i = 0; i < list->size(); ++i) {
+            const Node& item = (*list)[i];
+            const std::string path = index("scattering.dust", i);
+            c.object(item, path, {"surface", "coverage", "albedo", "diameter_um", "diameter_sigma"});
+            DustSpec d;
+            d.line = item.line;
+            d.surface = surfaceNumber(item, path, "surface");
+            d.coverage = c.numberIn(c.require(item, path, "coverage").value, child(path, "coverage"), 0.0, 1.0, "");
+            if (const Member* m = Checker::find(item, "albedo")) d.albedo = c.numberIn(m->value, child(path, "albedo"), 0.0, 1.0, "");
+            if (const Member* m = Checker::find(item, "diameter_um"))
+                d.diameterUm = c.numberIn(m->value, child(path, "diameter_um"), 0.0, 1e4, "um", true);
+            if (const Member* m = Checker::find(item, "diameter_sigma"))
+                d.diameterSigma = c.numberIn(m->value, child(path, "diameter_sigma"), 0.0, 3.0, "");
+            s.dust.push_back(d);
+        }
+    if (const auto* list = items("grease"))
+        for (std::size_t i = 0; i < list->size(); ++i) {
+            const Node& item = (*list)[i];
+            const std::string path = index("scattering.grease", i);
+            c.object(item, path, {"surface", "coverage", "roughness"});
+            GreaseSpec g;
+            g.line = item.line;
+            g.surface = surfaceNumber(item, path, "surface");
+            g.coverage = c.numberIn(c.require(item, path, "coverage").value, child(path, "coverage"), 0.0, 1.0, "");
+            if (const Member* m = Checker::find(item, "roughness"))
+                g.roughness = c.numberIn(m->value, child(path, "roughness"), 0.0, 1.0, "", true);
+            s.grease.push_back(g);
+        }
+    if (const auto* list = items("bulk"))
+        for (std::size_t i = 0; i < list->size(); ++i) {
+            const Node& item = (*list)[i];
+            const std::string path = index("scattering.bulk", i);
+            c.object(item, path, {"element", "scattering_per_mm", "absorption_per_mm", "g", "rayleigh", "grid", "grid_name"});
+            BulkSpec b;
+            b.line = item.line;
+            b.element = surfaceNumber(item, path, "element");
+            b.scatteringPerMm = c.numberIn(c.require(item, path, "scattering_per_mm").value, child(path, "scattering_per_mm"),
+                                           0.0, 100.0, "per mm");
+            if (const Member* m = Checker::find(item, "absorption_per_mm"))
+                b.absorptionPerMm = c.numberIn(m->value, child(path, "absorption_per_mm"), 0.0, 100.0, "per mm");
+            if (const Member* m = Checker::find(item, "g")) b.g = c.numberIn(m->value, child(path, "g"), -0.99, 0.99, "");
+            if (const Member* m = Checker::find(item, "rayleigh")) b.rayleigh = c.boolean(m->value, child(path, "rayleigh"));
+            if (const Member* m = Checker::find(item, "grid")) {
+                const std::string& file = c.string(m->value, child(path, "grid"));
+                const std::filesystem::path resolved = std::filesystem::path(baseDir) / file;
+                b.grid = std::filesystem::exists(resolved) || baseDir.empty() ? resolved.string() : file;
+            }
+            if (const Member* m = Checker::find(item, "grid_name")) b.gridName = c.string(m->value, child(path, "grid_name"));
+            s.bulk.push_back(b);
+        }
+}
+
 std::string shippedLensNames() {
     std::string names;
     for (const EmbeddedLens& lens : embeddedLenses()) names += (names.empty() ? "" : ", ") + std::string(lens.name);
@@ -652,7 +732,7 @@ Scene parseSceneText(std::string_view text, const std::string& fileName, const s
     Scene scene;
     scene.sourceFile = fileName;
     c.object(root, "",
-             {"description", "lens", "zoom", "focus_distance_mm", "f_number", "sensor", "lights", "render"});
+             {"description", "lens", "zoom", "focus_distance_mm", "f_number", "sensor", "lights", "render", "scattering"});
 
     if (const Member* m = Checker::find(root, "description")) scene.description = c.string(m->value, "description");
 
@@ -712,6 +792,7 @@ Scene parseSceneText(std::string_view text, const std::string& fileName, const s
     }
 
     if (const Member* m = Checker::find(root, "render")) parseRender(c, m->value, scene.render);
+    if (const Member* m = Checker::find(root, "scattering")) parseScattering(c, m->value, baseDir, scene.scattering);
     return scene;
 }
 

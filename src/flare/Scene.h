@@ -78,6 +78,38 @@ struct RenderSettings {
     bool includeSensorGhosts = true;      // paths that reflect off the sensor
 };
 
+// Scattering (docs/scene-format.md, "scattering"). Surfaces are numbered from 1 in file order,
+// counting the stop, as everywhere; an element is named by the number of its first surface.
+struct FinishSpec {
+    double diffuse = 0.03;  // Lambertian albedo (default: dark matte black paint, ~3 %)
+    double glossy = 0.0;    // share reflected into a Phong lobe about the mirror direction
+};
+struct DustSpec {
+    int surface = 0;
+    double coverage = 0.0, albedo = 0.5, diameterUm = 20.0, diameterSigma = 0.5;
+    int line = 0;
+};
+struct GreaseSpec {
+    int surface = 0;
+    double coverage = 0.0, roughness = 0.1;
+    int line = 0;
+};
+struct BulkSpec {
+    int element = 0;
+    double scatteringPerMm = 0.0, absorptionPerMm = 0.0, g = 0.0;
+    bool rayleigh = false;
+    std::string grid;      // resolved path of a .vdb ("" = homogeneous)
+    std::string gridName;  // "" = the file's first float grid
+    int line = 0;
+};
+struct ScatteringSettings {
+    FinishSpec housing, edges, iris;
+    double glossExponent = 30.0;
+    std::vector<DustSpec> dust;
+    std::vector<GreaseSpec> grease;
+    std::vector<BulkSpec> bulk;
+};
+
 // 1-based lines in the scene file of the values that can only be checked once the lens is loaded
 // (0 when the key is absent), so that those errors still point into the scene.
 struct SceneLines {
@@ -95,6 +127,7 @@ struct Scene {
     std::vector<LightSpec> lights;
     SensorSettings sensor;
     RenderSettings render;
+    ScatteringSettings scattering;
     SceneLines lines;
 };
 

@@ -55,6 +55,7 @@ TraceResult tracePath(const LensSystem& lens, const SpectralIndices& indices, co
     result.ray = ray;
     result.throughput = 1.0;
     if (options.pathPointsMm) options.pathPointsMm->push_back(ray.originMm);
+    if (options.pathSurfaces) options.pathSurfaces->push_back(path.start);
 
     int position = path.start;
     int direction = path.direction;
@@ -82,6 +83,7 @@ TraceResult tracePath(const LensSystem& lens, const SpectralIndices& indices, co
             result.ray.originMm = result.ray.at(t);
             ++result.interactions;
             if (options.pathPointsMm) options.pathPointsMm->push_back(result.ray.originMm);
+            if (options.pathSurfaces) options.pathSurfaces->push_back(sensor);
             if (reflectHere) {
                 // Only the sensor itself reflects; around it is the dark camera body.
                 const glm::dvec3& q = result.ray.originMm;
@@ -113,6 +115,7 @@ TraceResult tracePath(const LensSystem& lens, const SpectralIndices& indices, co
         result.ray.originMm = p;
         ++result.interactions;
         if (options.pathPointsMm) options.pathPointsMm->push_back(p);
+        if (options.pathSurfaces) options.pathSurfaces->push_back(k);
         position = k;
 
         if (surface.isStop) {

@@ -40,6 +40,9 @@ struct TraceOptions {
     bool fresnelWeights = true;  // multiply throughput by Fresnel/coating factors
     // Optional: every point where the ray meets a surface or the sensor, for drawings.
     std::vector<glm::dvec3>* pathPointsMm = nullptr;
+    // Optional, alongside pathPointsMm: the surface of each point (−1 the start, surfaceCount the
+    // sensor), so that a caller knows which medium each segment crossed.
+    std::vector<int>* pathSurfaces = nullptr;
 };
 
 // Where a sequential path starts and ends. Surfaces are 0-based in file order (counting the stop);

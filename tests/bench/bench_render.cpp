@@ -8,12 +8,28 @@
 #include <tbb/global_control.h>
 
 #include "flare/Render.h"
+#include "flare/VolumeGrid.h"
 
 namespace {
 
 using namespace flare;
 
-void renderPasses(benchmark::State& state, RenderOptions::Mode mode) {
+// Bulk scattering in every glass element: none (0), homogeneous (1), or the haze grid (2).
+void addBulk(const LensSystem& lens, int kind, RenderOptions& options) {
+    if (kind == 0) return;
+    auto haze = kind == 2 ? std::make_shared<VolumeGrid>(VolumeGrid::load(FLARE_SOURCE_DIR "/volumes/haze.vdb")) : nullptr;
+    for (int cell = 1; cell < lens.surfaceCount(); ++cell) {
+        if (lens.mediumBefore(cell).isAir()) continue;
+        BulkMedium medium;
+        medium.cell = cell;
+        medium.scatteringPerMm = 0.01;
+        medium.g = 0.7;
+        medium.grid = haze;
+        options.media.push_back(medium);
+    }
+}
+
+void renderPasses(benchmark::State& state, RenderOptions::Mode mode, int bulk = 0) {
     tbb::global_control threads(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(state.range(0)));
     const Scene scene = defaultScene();
     const LensSystem lens = buildSceneLens(scene);
@@ -23,8 +39,13 @@ void renderPasses(benchmark::State& state, RenderOptions::Mode mode) {
     options.film.heightPx = scene.sensor.heightPx;
     options.film.widthMm = lens.sensor().widthMm;
     options.film.heightMm = lens.sensor().heightMm;
+    addBulk(lens, bulk, options);
     Renderer renderer(lens, scene, options);
     for (auto _ : state) renderer.runPass();
+    const RenderStatistics& s = renderer.statistics();
+    if (s.realCollisions + s.nullCollisions > 0)
+        state.counters["null_collision_ratio"] =
+            static_cast<double>(s.nullCollisions) / static_cast<double>(s.realCollisions + s.nullCollisions);
     state.SetItemsProcessed(state.iterations() * options.photonsPerPass());
     state.counters["photons_per_s_per_thread"] = benchmark::Counter(
         static_cast<double>(state.iterations() * options.photonsPerPass()) / static_cast<double>(state.range(0)),
@@ -33,8 +54,13 @@ void renderPasses(benchmark::State& state, RenderOptions::Mode mode) {
 
 void BM_RenderNaive(benchmark::State& state) { renderPasses(state, RenderOptions::Mode::Naive); }
 void BM_RenderGuided(benchmark::State& state) { renderPasses(state, RenderOptions::Mode::Guided); }
+void BM_RenderNaiveBulkHomogeneous(benchmark::State& state) { renderPasses(state, RenderOptions::Mode::Naive, 1); }
+void BM_RenderNaiveBulkHazeGrid(benchmark::State& state) { renderPasses(state, RenderOptions::Mode::Naive, 2); }
 
 BENCHMARK(BM_RenderNaive)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
 BENCHMARK(BM_RenderGuided)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
+// Cost of bulk scattering in every element (6 elements of the double Gauss, σs = 0.01/mm).
+BENCHMARK(BM_RenderNaiveBulkHomogeneous)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
+BENCHMARK(BM_RenderNaiveBulkHazeGrid)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
 
 }  // namespace
