@@ -1,8 +1,12 @@
-// Shared helpers for the unit tests: paths into the source tree, lens loading, and critical values
-// of the χ² and normal distributions for statistical tests.
+// Shared helpers for the unit tests: paths into the source tree, lens loading, running the CLI,
+// and critical values of the χ² and normal distributions for statistical tests.
 #pragma once
 
+#include <sys/wait.h>
+
+#include <array>
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -17,6 +21,23 @@ inline std::string sourcePath(const std::string& relative) {
 
 inline LensSystem loadLens(const std::string& relative, const LensState& state = {}) {
     return LensSystem::build(loadLensFile(sourcePath(relative)), state);
+}
+
+// Runs the built `flare` binary with `arguments` (stdout and stderr together); the exit code is −1
+// if it did not exit normally.
+struct CliRun {
+    int exitCode;
+    std::string out;
+};
+inline CliRun runCli(const std::string& arguments) {
+    const std::string command = std::string(FLARE_CLI_PATH) + " " + arguments + " 2>&1";
+    FILE* pipe = popen(command.c_str(), "r");
+    if (!pipe) return {-1, "popen failed"};
+    std::string out;
+    std::array<char, 4096> buffer{};
+    while (size_t n = fread(buffer.data(), 1, buffer.size(), pipe)) out.append(buffer.data(), n);
+    const int status = pclose(pipe);
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
 }
 
 // Every lens shipped in lenses/.

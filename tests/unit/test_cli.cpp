@@ -15,21 +15,8 @@
 namespace flare {
 namespace {
 
-struct CliRun {
-    int exitCode;
-    std::string out;
-};
-
-CliRun run(const std::string& arguments) {
-    const std::string command = std::string(FLARE_CLI_PATH) + " " + arguments + " 2>&1";
-    FILE* pipe = popen(command.c_str(), "r");
-    EXPECT_NE(pipe, nullptr);
-    std::string out;
-    std::array<char, 4096> buffer{};
-    while (size_t n = fread(buffer.data(), 1, buffer.size(), pipe)) out.append(buffer.data(), n);
-    const int status = pclose(pipe);
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
+using test::CliRun;
+CliRun run(const std::string& arguments) { return test::runCli(arguments); }
 
 TEST(Cli, LensInfoJsonHasTheDocumentedKeys) {
     const CliRun r = run("lens info " + test::sourcePath("lenses/double-gauss-50mm.lens") + " --json");

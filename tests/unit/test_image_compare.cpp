@@ -18,6 +18,7 @@
 
 #include "flare/Error.h"
 #include "flare/ImageCompare.h"
+#include "TestUtil.h"
 #include "flare/ImageIO.h"
 
 namespace flare {
@@ -188,21 +189,8 @@ TEST(ImageCompare, MalformedLayerIsAProgrammingError) {
 
 // ---- the command line ----------------------------------------------------------------------
 
-struct CliRun {
-    int exitCode;
-    std::string out;  // stdout and stderr together
-};
-
-CliRun runCli(const std::string& arguments) {
-    const std::string command = std::string(FLARE_CLI_PATH) + " " + arguments + " 2>&1";
-    FILE* pipe = popen(command.c_str(), "r");
-    EXPECT_NE(pipe, nullptr);
-    std::string out;
-    std::array<char, 4096> buffer{};
-    while (size_t n = fread(buffer.data(), 1, buffer.size(), pipe)) out.append(buffer.data(), n);
-    const int status = pclose(pipe);
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
+using test::CliRun;
+using test::runCli;
 
 // A fresh directory per test, removed afterwards.
 class CompareCliTest : public ::testing::Test {

@@ -11,26 +11,14 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "TestUtil.h"
 #include "flare/ImageIO.h"
 
 namespace flare {
 namespace {
 
-struct CliRun {
-    int exitCode;
-    std::string out;
-};
-
-CliRun run(const std::string& arguments) {
-    const std::string command = std::string(FLARE_CLI_PATH) + " " + arguments + " 2>&1";
-    FILE* pipe = popen(command.c_str(), "r");
-    EXPECT_NE(pipe, nullptr);
-    std::string out;
-    std::array<char, 4096> buffer{};
-    while (size_t n = fread(buffer.data(), 1, buffer.size(), pipe)) out.append(buffer.data(), n);
-    const int status = pclose(pipe);
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
+using test::CliRun;
+CliRun run(const std::string& arguments) { return test::runCli(arguments); }
 
 std::string tempPath(const std::string& name) {
     const auto dir = std::filesystem::temp_directory_path() / "flare_render_cli";

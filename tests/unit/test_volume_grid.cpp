@@ -662,21 +662,8 @@ TEST_F(VolumeMakeTest, BadOptionsThrow) {
 
 // ---- Shipped grids and the CLI ------------------------------------------------------------------------
 
-struct CliRun {
-    int exitCode;
-    std::string out;
-};
-
-CliRun runCli(const std::string& arguments) {
-    const std::string command = std::string(FLARE_CLI_PATH) + " " + arguments + " 2>&1";
-    FILE* pipe = popen(command.c_str(), "r");
-    EXPECT_NE(pipe, nullptr);
-    std::string out;
-    std::array<char, 4096> buffer{};
-    while (size_t n = fread(buffer.data(), 1, buffer.size(), pipe)) out.append(buffer.data(), n);
-    const int status = pclose(pipe);
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
+using test::CliRun;
+using test::runCli;
 
 const char* const kShippedVolumes[] = {"volumes/haze.vdb", "volumes/striae.vdb", "volumes/bubbles.vdb",
                                        "volumes/inclusions.vdb"};
