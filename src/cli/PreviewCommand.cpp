@@ -26,6 +26,7 @@ struct PreviewCommandOptions {
     std::string exr;
     std::string png;
     bool layers = false;
+    bool floatLayers = false;
     bool quiet = false;
 };
 
@@ -96,10 +97,20 @@ void run(const PreviewCommandOptions& o) {
     add(total, ghosts);
     const int w = options.widthPx, h = options.heightPx;
     std::vector<ImageLayer> layers{toRgb("", total, w, h)};
+    ExrWriteOptions storage;
     if (o.layers) {
         layers.push_back(toRgb("direct", direct, w, h));
         layers.push_back(toRgb("ghost", ghosts, w, h));
-        for (const auto& [name, xyz] : perGhost) layers.push_back(toRgb(name, xyz, w, h));
+        // Per-ghost layers at half precision (11 significant bits, what compositing uses), which
+        // halves the file: as half floats where the layer's values fit half's range, else as
+        // floats rounded to half's precision (a weak ghost can lie below half's range in the
+        // lights' units). The main image and the direct and ghost layers stay exact.
+        for (auto& [name, xyz] : perGhost) {
+            layers.push_back(toRgb(name, xyz, w, h));
+            std::vector<float>().swap(xyz);  // one copy at a time
+            if (!o.floatLayers)
+                storage.storage[name] = fitsHalf(layers.back()) ? ExrStorage::Half : ExrStorage::FloatHalfPrecision;
+        }
     }
     const std::vector<std::pair<std::string, std::string>> metadata = {
         {"software", "flare preview"},
@@ -108,7 +119,7 @@ void run(const PreviewCommandOptions& o) {
         {"scene", scene.sourceFile.empty() ? "embedded default scene" : scene.sourceFile},
         {"lens", lens.name()},
     };
-    writeExr(o.exr, layers, metadata);
+    writeExr(o.exr, layers, metadata, storage);
     // The light's own image is 10⁴–10⁶ times brighter than its ghosts: expose for the ghosts (two
     // stops under the ghost layer's auto exposure, so that overlapping ghosts keep their colour) and
     // let the light clip, as a photograph of a flare does.
@@ -129,7 +140,9 @@ void addPreviewCommand(CLI::App& app) {
     preview->add_option("SCENE", o->scene, "scene file (JSON); default: the embedded default scene");
     preview->add_option("-o,--output", o->exr, "EXR file to write")->required();
     preview->add_option("--png", o->png, "also write a tone-mapped PNG");
-    preview->add_flag("--layers", o->layers, "add layers: direct, ghost and one per ghost (ghost_03_07.R/G/B)");
+    preview->add_flag("--layers", o->layers,
+                      "add layers: direct, ghost (32-bit float) and one per ghost (ghost_03_07.R/G/B, half precision)");
+    preview->add_flag("--float-layers", o->floatLayers, "with --layers: store the per-ghost layers as exact 32-bit float");
     preview->add_flag("--quiet", o->quiet, "no statistics on stderr");
     preview->callback([o] { run(*o); });
 }

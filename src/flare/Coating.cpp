@@ -32,13 +32,16 @@ struct LayerMatrix {
 void respond(const LayerMatrix& m, double eta0, double etaSub, double* r, double* t) {
     const double numRe = eta0 * m.a - m.d * etaSub, numIm = eta0 * m.b * etaSub - m.c;
     const double denRe = eta0 * m.a + m.d * etaSub, denIm = eta0 * m.b * etaSub + m.c;
-    const double den2 = denRe * denRe + denIm * denIm;
-    *r = (numRe * numRe + numIm * numIm) / den2;
-    *t = 4.0 * eta0 * etaSub / den2;
+    const double inverse = 1.0 / (denRe * denRe + denIm * denIm);
+    *r = (numRe * numRe + numIm * numIm) * inverse;
+    *t = 4.0 * eta0 * etaSub * inverse;
 }
 
 }  // namespace
 
+// Every ghost ray evaluates this at most surfaces it meets, so it is written with few divisions
+// and square roots: the invariant n·sinθ is kept squared, the incident cosine is the one given,
+// and each reciprocal is taken once.
 FresnelTerms thinFilmResponse(const Coating& coating, double cosThetaI, double nAir, double nGlass,
                               bool fromAirSide, double wavelengthNm) {
     if (coating.layers.empty()) {
@@ -48,14 +51,20 @@ FresnelTerms thinFilmResponse(const Coating& coating, double cosThetaI, double n
     const double n0 = fromAirSide ? nAir : nGlass;
     const double nSub = fromAirSide ? nGlass : nAir;
     cosThetaI = std::clamp(cosThetaI, 0.0, 1.0);
-    const double invariant = n0 * std::sqrt(std::max(0.0, 1.0 - cosThetaI * cosThetaI));  // n·sinθ
+    const double invariant2 = n0 * n0 * std::max(0.0, 1.0 - cosThetaI * cosThetaI);  // (n·sinθ)²
 
     FresnelTerms terms;
-    if (invariant >= nSub) {  // total internal reflection at the stack's far side
+    if (invariant2 >= nSub * nSub) {  // total internal reflection at the stack's far side
         terms.rs = terms.rp = 1.0;
         terms.ts = terms.tp = 0.0;
         terms.cosThetaT = 0.0;
         terms.totalInternalReflection = true;
+        return terms;
+    }
+    if (cosThetaI == 0.0) {  // grazing: the limit (the p admittance n0/cosθ would be infinite)
+        terms.rs = terms.rp = 1.0;
+        terms.ts = terms.tp = 0.0;
+        terms.cosThetaT = std::sqrt(1.0 - invariant2 / (nSub * nSub));
         return terms;
     }
     // Below the outer critical angle every layer propagates: from air the invariant is below 1 and
@@ -63,22 +72,25 @@ FresnelTerms thinFilmResponse(const Coating& coating, double cosThetaI, double n
     // already been reflected totally. So each layer has a real angle and phase δ, and δ is shared
     // by s and p: one sincos per layer.
     LayerMatrix s, p;
+    const double wavenumber = 2.0 * std::numbers::pi / wavelengthNm;
     const size_t count = coating.layers.size();
     for (size_t i = 0; i < count; ++i) {
         const ThinFilmLayer& layer = coating.layers[fromAirSide ? i : count - 1 - i];
-        const double sin2 = (invariant / layer.index) * (invariant / layer.index);
+        const double inverseIndex = 1.0 / layer.index;
+        const double sin2 = invariant2 * inverseIndex * inverseIndex;
         assert(sin2 < 1.0 && "coating layers have indices of at least 1");
         const double cosT = std::sqrt(std::max(0.0, 1.0 - sin2));
-        const double delta = 2.0 * std::numbers::pi * layer.index * layer.thicknessNm * cosT / wavelengthNm;
+        const double inverseCosT = 1.0 / cosT;
+        const double delta = wavenumber * layer.index * layer.thicknessNm * cosT;
         const double cosDelta = std::cos(delta), sinDelta = std::sin(delta);
-        const double etaS = layer.index * cosT, etaP = layer.index / cosT;
-        s = s.then({cosDelta, sinDelta / etaS, etaS * sinDelta, cosDelta});
-        p = p.then({cosDelta, sinDelta / etaP, etaP * sinDelta, cosDelta});
+        // s: η = n·cosθ; p: η = n/cosθ.
+        const double etaS = layer.index * cosT, etaP = layer.index * inverseCosT;
+        s = s.then({cosDelta, sinDelta * inverseIndex * inverseCosT, etaS * sinDelta, cosDelta});
+        p = p.then({cosDelta, sinDelta * cosT * inverseIndex, etaP * sinDelta, cosDelta});
     }
-    const double cos0 = std::sqrt(std::max(0.0, 1.0 - (invariant / n0) * (invariant / n0)));
-    const double cosSub = std::sqrt(1.0 - (invariant / nSub) * (invariant / nSub));
-    respond(s, n0 * cos0, nSub * cosSub, &terms.rs, &terms.ts);
-    respond(p, n0 / cos0, nSub / cosSub, &terms.rp, &terms.tp);
+    const double cosSub = std::sqrt(1.0 - invariant2 / (nSub * nSub));
+    respond(s, n0 * cosThetaI, nSub * cosSub, &terms.rs, &terms.ts);
+    respond(p, n0 / cosThetaI, nSub / cosSub, &terms.rp, &terms.tp);
     terms.cosThetaT = cosSub;
     return terms;
 }

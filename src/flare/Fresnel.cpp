@@ -46,20 +46,4 @@ glm::dvec3 reflect(const glm::dvec3& direction, const glm::dvec3& normal) {
     return direction - 2.0 * glm::dot(direction, normal) * normal;
 }
 
-bool refract(const glm::dvec3& direction, const glm::dvec3& normal, double n1, double n2,
-             glm::dvec3* refracted) {
-    glm::dvec3 n = normal;
-    double cosThetaI = -glm::dot(direction, n);
-    if (cosThetaI < 0.0) {
-        n = -n;
-        cosThetaI = -cosThetaI;
-    }
-    const double eta = n1 / n2;
-    const double sin2ThetaT = eta * eta * std::max(0.0, 1.0 - cosThetaI * cosThetaI);
-    if (sin2ThetaT >= 1.0) return false;
-    const double cosThetaT = std::sqrt(1.0 - sin2ThetaT);
-    *refracted = glm::normalize(eta * direction + (eta * cosThetaI - cosThetaT) * n);
-    return true;
-}
-
 }  // namespace flare

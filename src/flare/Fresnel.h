@@ -3,6 +3,10 @@
 // either side (the functions orient it against the incident direction).
 #pragma once
 
+#include <algorithm>
+#include <cmath>
+
+#include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 
 namespace flare {
@@ -27,8 +31,22 @@ FresnelTerms fresnelDielectric(double cosThetaI, double n1, double n2);
 // Mirror reflection of `direction` about a surface with normal `normal` (either orientation).
 glm::dvec3 reflect(const glm::dvec3& direction, const glm::dvec3& normal);
 
-// Snell refraction from index n1 into n2. Returns false under total internal reflection.
-bool refract(const glm::dvec3& direction, const glm::dvec3& normal, double n1, double n2,
-             glm::dvec3* refracted);
+// Snell refraction from index n1 into n2. Returns false under total internal reflection. Inline
+// so that batch tracers compile it into their loops with the same results to the last bit.
+inline bool refract(const glm::dvec3& direction, const glm::dvec3& normal, double n1, double n2,
+                    glm::dvec3* refracted) {
+    glm::dvec3 n = normal;
+    double cosThetaI = -glm::dot(direction, n);
+    if (cosThetaI < 0.0) {
+        n = -n;
+        cosThetaI = -cosThetaI;
+    }
+    const double eta = n1 / n2;
+    const double sin2ThetaT = eta * eta * std::max(0.0, 1.0 - cosThetaI * cosThetaI);
+    if (sin2ThetaT >= 1.0) return false;
+    const double cosThetaT = std::sqrt(1.0 - sin2ThetaT);
+    *refracted = glm::normalize(eta * direction + (eta * cosThetaI - cosThetaT) * n);
+    return true;
+}
 
 }  // namespace flare

@@ -5,9 +5,12 @@
 #include <numeric>
 
 #include <glm/common.hpp>
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
 
-#include "flare/SequentialTracer.h"
+#include "flare/BundleTracer.h"
+#include "flare/PupilMesh.h"
 
 namespace flare {
 
@@ -17,95 +20,64 @@ int LivePupilRegion::liveCount() const {
 
 namespace {
 
-struct Landing {
-    bool live = false;
-    double throughput = 0.0;
-    glm::dvec2 sensorMm{0.0};
-};
+GhostEstimate estimate(const LensSystem& lens, const SpectralIndices& indices, const InterfaceTables* tables,
+                       const PupilGrid& grid, double enteringAreaMm2, const GhostPath& ghost,
+                       const GhostAnalysisOptions& options) {
+    GhostEstimate estimate;
+    estimate.path = ghost;
+    estimate.paraxial = analyseGhostParaxial(lens, indices, ghost);
 
-Landing traceCell(const LensSystem& lens, const SpectralIndices& indices, const PupilGrid& grid,
-                  const SequentialPath& path, double a, double b) {
-    const TraceResult r = tracePath(lens, indices, grid.ray(a, b), path);
-    if (!r.ok()) return {};
-    const glm::dvec3& p = r.ray.originMm;
-    const bool onSensor = std::abs(p.x) <= 0.5 * lens.sensor().widthMm && std::abs(p.y) <= 0.5 * lens.sensor().heightMm;
-    if (!onSensor) return {};
-    return {true, r.throughput, {p.x, p.y}};
+    const BundleTracer tracer(lens, indices, ghost.reflections, true, tables);
+    PupilMeshOptions search;
+    search.windowMinMm = glm::dvec2(-grid.halfSizeMm);
+    search.windowSizeMm = 2.0 * grid.halfSizeMm;
+    search.baseCells = options.coarseCells;
+    search.minCellsAcross = options.fineCells;
+    search.minLivePoints = options.minLivePoints;
+    search.minPassingPoints = options.minPassingPoints;
+    search.requireOnSensor = true;
+    const PupilMesh mesh = meshLiveRegion(tracer, grid, search);
+    estimate.pupil = mesh.region;
+    estimate.lattice = mesh.lattice;
+    if (mesh.empty()) return estimate;
+
+    double power = 0.0;
+    glm::dvec2 lo(1e300), hi(-1e300);
+    for (const PupilTriangle& t : mesh.triangles) {
+        power += t.power();
+        for (const PupilVertex& v : t.v) {
+            lo = glm::min(lo, v.sensorMm);
+            hi = glm::max(hi, v.sensorMm);
+        }
+    }
+    estimate.powerFraction = power / enteringAreaMm2;
+    if (power == 0.0) return estimate;
+    estimate.footprintMinMm = lo;
+    estimate.footprintMaxMm = hi;
+
+    // Peak irradiance from a 32 × 32 histogram over the footprint, each triangle's power at its
+    // image's centroid: robust against the infinite density of caustics (fold lines) that a
+    // per-triangle Jacobian would report.
+    constexpr int kBins = 32;
+    const glm::dvec2 extent = glm::max(hi - lo, glm::dvec2(1e-3));
+    std::vector<double> bins(kBins * kBins, 0.0);
+    for (const PupilTriangle& t : mesh.triangles) {
+        const glm::dvec2 centroid = (t.v[0].sensorMm + t.v[1].sensorMm + t.v[2].sensorMm) / 3.0;
+        const glm::dvec2 u = (centroid - lo) / extent;
+        const int bx = std::clamp(static_cast<int>(u.x * kBins), 0, kBins - 1);
+        const int by = std::clamp(static_cast<int>(u.y * kBins), 0, kBins - 1);
+        bins[by * kBins + bx] += t.power();
+    }
+    const double binArea = (extent.x / kBins) * (extent.y / kBins);
+    estimate.peakIrradianceRatio = *std::max_element(bins.begin(), bins.end()) / binArea;
+    return estimate;
 }
 
 }  // namespace
 
 GhostEstimate estimatePath(const LensSystem& lens, const SpectralIndices& indices, const PupilGrid& grid,
                            double enteringAreaMm2, const GhostPath& ghost, const GhostAnalysisOptions& options) {
-    GhostEstimate estimate;
-    estimate.path = ghost;
-    estimate.paraxial = analyseGhostParaxial(lens, indices, ghost);
-    SequentialPath path;
-    path.reflections = ghost.reflections;
-
-    // Coarse pass: which part of the grid survives at all.
-    const int n0 = options.coarseCells;
-    const double coarse = 2.0 * grid.halfSizeMm / n0;
-    int iMin = n0, iMax = -1, jMin = n0, jMax = -1;
-    for (int j = 0; j < n0; ++j)
-        for (int i = 0; i < n0; ++i) {
-            const Landing l = traceCell(lens, indices, grid, path, -grid.halfSizeMm + (i + 0.5) * coarse,
-                                        -grid.halfSizeMm + (j + 0.5) * coarse);
-            if (!l.live) continue;
-            iMin = std::min(iMin, i), iMax = std::max(iMax, i);
-            jMin = std::min(jMin, j), jMax = std::max(jMax, j);
-        }
-    if (iMax < 0) return estimate;
-
-    // Fine pass over the live region grown by one coarse cell (rays beyond the coarse samples).
-    const double a0 = -grid.halfSizeMm + std::max(0, iMin - 1) * coarse;
-    const double a1 = -grid.halfSizeMm + std::min(n0, iMax + 2) * coarse;
-    const double b0 = -grid.halfSizeMm + std::max(0, jMin - 1) * coarse;
-    const double b1 = -grid.halfSizeMm + std::min(n0, jMax + 2) * coarse;
-    LivePupilRegion& region = estimate.pupil;
-    region.cellMm = std::max(a1 - a0, b1 - b0) / options.fineCells;
-    region.cellsA = std::max(1, static_cast<int>(std::ceil((a1 - a0) / region.cellMm - 1e-9)));
-    region.cellsB = std::max(1, static_cast<int>(std::ceil((b1 - b0) / region.cellMm - 1e-9)));
-    region.aMinMm = a0;
-    region.bMinMm = b0;
-    region.live.assign(static_cast<size_t>(region.cellsA) * region.cellsB, 0);
-
-    std::vector<Landing> landings(region.live.size());
-    double power = 0.0;
-    glm::dvec2 lo(1e300), hi(-1e300);
-    for (int j = 0; j < region.cellsB; ++j)
-        for (int i = 0; i < region.cellsA; ++i) {
-            const Landing l = traceCell(lens, indices, grid, path, a0 + (i + 0.5) * region.cellMm,
-                                        b0 + (j + 0.5) * region.cellMm);
-            const size_t index = static_cast<size_t>(j) * region.cellsA + i;
-            landings[index] = l;
-            if (!l.live) continue;
-            region.live[index] = 1;
-            power += l.throughput;
-            lo = glm::min(lo, l.sensorMm);
-            hi = glm::max(hi, l.sensorMm);
-        }
-    const double cellArea = region.cellMm * region.cellMm;
-    estimate.powerFraction = power * cellArea / enteringAreaMm2;
-    if (power == 0.0) return estimate;
-    estimate.footprintMinMm = lo;
-    estimate.footprintMaxMm = hi;
-
-    // Peak irradiance from a 32 × 32 histogram over the footprint: robust against the infinite
-    // density of caustics (fold lines) that a per-cell Jacobian would report.
-    constexpr int kBins = 32;
-    const glm::dvec2 extent = glm::max(hi - lo, glm::dvec2(1e-3));
-    std::vector<double> bins(kBins * kBins, 0.0);
-    for (const Landing& l : landings) {
-        if (!l.live) continue;
-        const glm::dvec2 t = (l.sensorMm - lo) / extent;
-        const int bx = std::min(kBins - 1, static_cast<int>(t.x * kBins));
-        const int by = std::min(kBins - 1, static_cast<int>(t.y * kBins));
-        bins[by * kBins + bx] += l.throughput * cellArea;
-    }
-    const double binArea = (extent.x / kBins) * (extent.y / kBins);
-    estimate.peakIrradianceRatio = *std::max_element(bins.begin(), bins.end()) / binArea;
-    return estimate;
+    return estimate(lens, indices, nullptr, grid, enteringAreaMm2, ghost, options);
 }
 
 void pruneGhosts(std::vector<GhostEstimate>& ghosts, double keepShare, double relativeThreshold) {
@@ -128,13 +100,21 @@ GhostReport analyseGhosts(const LensSystem& lens, const glm::dvec3& lightDirecti
     report.grid = PupilGrid::forDirection(lens, lightDirection);
     report.enteringAreaMm2 = report.grid.enteringAreaMm2(lens, 512);
     const SpectralIndices indices = lens.indicesAt(options.wavelengthNm);
-    report.direct = estimatePath(lens, indices, report.grid, report.enteringAreaMm2, GhostPath{}, options);
+    // The Fresnel/coating factors, tabulated once for all paths.
+    const InterfaceTables tables(lens, indices);
+    report.direct = estimate(lens, indices, &tables, report.grid, report.enteringAreaMm2, GhostPath{}, options);
 
     const std::vector<GhostPath> paths = enumerateGhosts(lens, options.order, options.includeSensor);
     report.ghosts.resize(paths.size());
-    tbb::parallel_for(size_t{0}, paths.size(), [&](size_t i) {
-        report.ghosts[i] = estimatePath(lens, indices, report.grid, report.enteringAreaMm2, paths[i], options);
-    });
+    // One path per task: their costs differ by orders of magnitude (a path dead at the second
+    // surface against a live one meeting fifty), so let TBB balance them one by one.
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, paths.size(), 1),
+                      [&](const tbb::blocked_range<size_t>& range) {
+                          for (size_t i = range.begin(); i != range.end(); ++i)
+                              report.ghosts[i] = estimate(lens, indices, &tables, report.grid,
+                                                          report.enteringAreaMm2, paths[i], options);
+                      },
+                      tbb::simple_partitioner());
     // Strongest first; ties keep enumeration order so that reports are deterministic.
     std::stable_sort(report.ghosts.begin(), report.ghosts.end(),
                      [](const GhostEstimate& a, const GhostEstimate& b) { return a.powerFraction > b.powerFraction; });

@@ -1,6 +1,8 @@
 // Real-ray estimate of what each ghost path puts on the sensor for one directional light: power
 // fraction, footprint, peak irradiance and the region of the pupil grid whose rays survive the
-// path (which later guides photon emission). Then pruning by power.
+// path (which later guides photon emission). Then pruning by power. The live region is found and
+// integrated adaptively (PupilMesh): small or thin regions between coarse samples are found, and
+// the power is integrated over the region's contour, not counted cell by cell.
 #pragma once
 
 #include <cstdint>
@@ -13,7 +15,10 @@
 
 namespace flare {
 
-// Cells of the pupil grid whose rays survive a path and land on the sensor.
+// Cells of the pupil grid whose rays survive a path and land on the sensor. The analysis marks
+// every cell with a surviving ray at one of its corners (and, where it refined a thin part of the
+// region into smaller cells, the cell holding them), so the marked set covers the live region as
+// far as the analysis resolves it, with a partial cell along its edge.
 struct LivePupilRegion {
     double aMinMm = 0.0, bMinMm = 0.0;  // corner of the region on the pupil plane
     double cellMm = 0.0;                // square cells
@@ -31,6 +36,9 @@ struct GhostEstimate {
     glm::dvec2 footprintMinMm{0.0}, footprintMaxMm{0.0};  // bounding box on the sensor
     double peakIrradianceRatio = 0.0;  // peak sensor irradiance / incident irradiance
     LivePupilRegion pupil;
+    // The cells of the adaptive search that hold the live region (finer where it is thin): the
+    // preview traces its other wavelengths on them.
+    PupilLattice lattice;
     bool pruned = false;
 };
 
@@ -38,8 +46,14 @@ struct GhostAnalysisOptions {
     int order = 2;
     bool includeSensor = true;
     double wavelengthNm = 550.0;
-    int coarseCells = 32;   // first pass over the whole grid, to find the live region
-    int fineCells = 64;     // second pass across the live region's larger side
+    // The search (PupilMesh): lattice cells across the whole pupil grid at the first level, split
+    // where the region may be, until the live region spans fineCells cells (its larger side) and
+    // holds minLivePoints live lattice points. The region's edge is located between lattice
+    // points, so the power's error falls with the square of the cell size.
+    int coarseCells = 16;
+    int fineCells = 16;
+    int minLivePoints = 150;
+    int minPassingPoints = 32;  // the rays kept alive after each event, to follow the region
     double keepShare = 0.999;           // keep the strongest ghosts carrying this share of ghost power...
     double relativeThreshold = 1e-5;    // ...and any ghost above this fraction of the strongest
 };

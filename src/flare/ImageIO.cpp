@@ -11,8 +11,10 @@
 #include <set>
 #include <stdexcept>
 #include <system_error>
+#include <thread>
 
 #include <Imath/ImathBox.h>
+#include <Imath/half.h>
 #include <Imath/ImathVec.h>
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
@@ -22,6 +24,7 @@
 #include <OpenEXR/ImfStandardAttributes.h>
 #include <OpenEXR/ImfStdIO.h>
 #include <OpenEXR/ImfStringAttribute.h>
+#include <OpenEXR/ImfThreading.h>
 #include <png.h>
 
 #include "flare/Error.h"
@@ -75,8 +78,36 @@ double srgbOetf(double v) {  // IEC 61966-2-1
 
 }  // namespace
 
+namespace {
+
+constexpr float kHalfMax = 65504.0f;
+constexpr float kHalfMinNormal = 6.103515625e-05f;  // 2⁻¹⁴
+
+// A float rounded to nearest at 11 significant bits (10 explicit mantissa bits), keeping its
+// exponent: half's precision with float's range.
+float toHalfPrecision(float v) {
+    std::uint32_t bits = 0;
+    std::memcpy(&bits, &v, sizeof bits);
+    constexpr int kDropped = 23 - 10;
+    const std::uint32_t rounded = (bits + (std::uint32_t{1} << (kDropped - 1))) & ~((std::uint32_t{1} << kDropped) - 1);
+    float out = 0.0f;
+    std::memcpy(&out, &rounded, sizeof out);
+    return std::isfinite(out) ? out : v;  // rounding up past the largest float keeps the float
+}
+
+}  // namespace
+
+bool fitsHalf(const ImageLayer& layer) {
+    float largest = 0.0f;
+    for (float v : layer.rgb) largest = std::max(largest, std::abs(v));
+    if (!(largest <= kHalfMax)) return false;
+    for (float v : layer.rgb)
+        if (std::abs(v) > 1e-3f * largest && std::abs(v) < kHalfMinNormal) return false;
+    return true;
+}
+
 void writeExr(const std::string& path, const std::vector<ImageLayer>& layers,
-              const std::vector<std::pair<std::string, std::string>>& metadata) {
+              const std::vector<std::pair<std::string, std::string>>& metadata, const ExrWriteOptions& options) {
     if (layers.empty()) throw std::invalid_argument("writeExr: no image layers for " + path);
     std::set<std::string> names;
     for (const ImageLayer& layer : layers) {
@@ -102,17 +133,51 @@ void writeExr(const std::string& path, const std::vector<ImageLayer>& layers,
                                         "\" is empty or a standard attribute");
         header.insert(key, Imf::StringAttribute(value));
     }
+    for (const auto& [name, storage] : options.storage)
+        if (!names.count(name)) throw std::invalid_argument("writeExr: storage given for no layer \"" + name + "\"");
     Imf::FrameBuffer frameBuffer;
+    std::vector<std::vector<half>> halves;  // converted layers, alive until the pixels are written
+    std::vector<std::vector<float>> rounded;
+    halves.reserve(layers.size());
+    rounded.reserve(layers.size());
     for (const ImageLayer& layer : layers) {
+        const auto it = options.storage.find(layer.name);
+        const ExrStorage storage = it == options.storage.end() ? ExrStorage::Float : it->second;
+        const size_t rowFloats = 3 * static_cast<size_t>(width);
+        if (storage == ExrStorage::Half) {
+            std::vector<half>& h = halves.emplace_back(layer.rgb.size());
+            for (size_t i = 0; i < layer.rgb.size(); ++i) {
+                if (std::abs(layer.rgb[i]) > kHalfMax)
+                    throw std::logic_error("writeExr: layer \"" + layer.name + "\" has " + std::to_string(layer.rgb[i]) +
+                                           ", beyond half's range, at pixel " + std::to_string(i / 3));
+                h[i] = half(layer.rgb[i]);
+            }
+            for (int c = 0; c < 3; ++c) {
+                const std::string name = channelName(layer.name, c);
+                header.channels().insert(name, Imf::Channel(Imf::HALF));
+                frameBuffer.insert(name, Imf::Slice(Imf::HALF, reinterpret_cast<char*>(h.data() + c), 3 * sizeof(half),
+                                                    rowFloats * sizeof(half)));
+            }
+            continue;
+        }
+        const float* data = layer.rgb.data();
+        if (storage == ExrStorage::FloatHalfPrecision) {
+            std::vector<float>& r = rounded.emplace_back(layer.rgb.size());
+            for (size_t i = 0; i < layer.rgb.size(); ++i) r[i] = toHalfPrecision(layer.rgb[i]);
+            data = r.data();
+        }
         for (int c = 0; c < 3; ++c) {
             const std::string name = channelName(layer.name, c);
             header.channels().insert(name, Imf::Channel(Imf::FLOAT));
-            char* base = const_cast<char*>(reinterpret_cast<const char*>(layer.rgb.data() + c));
-            frameBuffer.insert(name, Imf::Slice(Imf::FLOAT, base, 3 * sizeof(float),
-                                                3 * sizeof(float) * static_cast<size_t>(width)));
+            char* base = const_cast<char*>(reinterpret_cast<const char*>(data + c));
+            frameBuffer.insert(name, Imf::Slice(Imf::FLOAT, base, 3 * sizeof(float), rowFloats * sizeof(float)));
         }
     }
 
+    // ZIP compression dominates writing many layers (the per-ghost ones); OpenEXR compresses
+    // blocks of scanlines in parallel once given threads, with the same bytes as one thread.
+    if (Imf::globalThreadCount() == 0)
+        Imf::setGlobalThreadCount(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
     const std::string partial = path + ".partial";
     try {
         // Our own stream, so that errors while closing (OpenEXR writes the line offset table in

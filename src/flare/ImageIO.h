@@ -1,9 +1,11 @@
-// Image output: multi-layer 32-bit float OpenEXR for the result (and reading it back for tests and
+// Image output: multi-layer OpenEXR (32-bit float, or half precision for selected layers) for the result (and reading it back for tests and
 // image comparison), and a tone-mapped 8-bit sRGB PNG for a quick look. Both writers are
 // all-or-nothing: they write `path + ".partial"` and rename it over `path` only when complete, so
 // a failed or interrupted render never leaves a truncated image under the final name.
 #pragma once
 
+#include <cstdint>
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -20,13 +22,36 @@ struct ImageLayer {
     std::vector<float> rgb;
 };
 
-// Writes the layers (all of one size) as a ZIP-compressed 32-bit float EXR with the standard
-// `chromaticities` attribute (Rec.709 primaries, D65 white) and each metadata pair as a string
-// attribute. Throws std::logic_error for malformed input (mismatched sizes, duplicate layer
-// names, a metadata key that is a standard attribute, any NaN or infinity: programming errors)
-// and std::runtime_error naming `path` when the file cannot be written; nothing is left behind.
+// How a layer's channels are stored in an EXR.
+enum class ExrStorage : std::uint8_t {
+    Float,  // 32-bit float, exact
+    // 16-bit half float, which compositing uses: 11 significant bits, magnitudes up to 65504 and
+    // full precision from 6.1e-5 (see fitsHalf). A value beyond ±65504 is an error.
+    Half,
+    // 32-bit float rounded to half's 11 significant bits: half's precision with float's range,
+    // for layers whose values lie below half's range (physical units put a weak ghost at 1e-9 of
+    // its light). The zeroed low bits make ZIP compress it about as well as half.
+    FloatHalfPrecision,
+};
+
+// Whether half floats keep a layer: no value beyond ±65504, and every value above 1e-3 of the
+// layer's largest magnitude at least half's smallest normal (6.1e-5), where half's relative
+// precision (2⁻¹¹) holds.
+bool fitsHalf(const ImageLayer& layer);
+
+struct ExrWriteOptions {
+    std::map<std::string, ExrStorage> storage;  // by layer name; layers not named are Float
+};
+
+// Writes the layers (all of one size) as a ZIP-compressed EXR, 32-bit float unless options say
+// otherwise, with the standard `chromaticities` attribute (Rec.709 primaries, D65 white) and each
+// metadata pair as a string attribute. Throws std::logic_error for malformed input (mismatched
+// sizes, duplicate layer names, a metadata key that is a standard attribute, any NaN or infinity,
+// a value beyond half's range in a Half layer: programming errors) and std::runtime_error naming
+// `path` when the file cannot be written; nothing is left behind.
 void writeExr(const std::string& path, const std::vector<ImageLayer>& layers,
-              const std::vector<std::pair<std::string, std::string>>& metadata);
+              const std::vector<std::pair<std::string, std::string>>& metadata,
+              const ExrWriteOptions& options = {});
 
 // Every layer of an EXR that has R, G and B channels, the main one (if any) first, then the others
 // by name. Half or float channels are read as float. A missing, unreadable or corrupt file throws

@@ -48,6 +48,11 @@ Iris::Iris(int blades, double rotationRad, double curvature, double radiusMm)
     sectorRad_ = 2.0 * std::numbers::pi / blades_;
     arcCentreMm_ = unit.arcCentre * scale;
     arcRadiusMm_ = unit.arcRadius * scale;
+    for (int k = 0; k < blades_; ++k) {
+        const double mid = rotationRad_ + (k + 0.5) * sectorRad_;
+        normalX_.push_back(std::cos(mid));
+        normalY_.push_back(std::sin(mid));
+    }
 }
 
 bool Iris::contains(double x, double y) const {
@@ -65,6 +70,30 @@ bool Iris::contains(double x, double y) const {
     if (arcRadiusMm_ == 0.0) return false;
     const double dx = xe - arcCentreMm_;
     return dx * dx + ye * ye <= arcRadiusMm_ * arcRadiusMm_;
+}
+
+double Iris::margin(double x, double y) const {
+    const double r2 = x * x + y * y;
+    if (blades_ == 0) return r2 / (radiusMm_ * radiusMm_) - 1.0;
+    if (r2 == 0.0) return -1.0;
+    // The sector holding the point is the one whose edge's mid-normal is closest to the point's
+    // direction (the largest projection), as contains() finds it by angle; its cosine and sine
+    // relative to that normal follow without trigonometry.
+    int sector = 0;
+    double projection = -1e300;
+    for (int k = 0; k < blades_; ++k) {
+        const double p = x * normalX_[k] + y * normalY_[k];
+        if (p > projection) projection = p, sector = k;
+    }
+    const double r = std::sqrt(r2);
+    const double c = projection / r;
+    const double s = (normalX_[sector] * y - normalY_[sector] * x) / r;
+    // Straight blade: the edge is xe = apothem. Bowed blade: the arc bounding contains()'s disk,
+    // which lies outside the chord within the sector, so it is the edge there.
+    const double rho = arcRadiusMm_ == 0.0
+                           ? apothemMm_ / c
+                           : arcCentreMm_ * c + std::sqrt(arcRadiusMm_ * arcRadiusMm_ - arcCentreMm_ * arcCentreMm_ * s * s);
+    return r2 / (rho * rho) - 1.0;
 }
 
 }  // namespace flare

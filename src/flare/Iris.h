@@ -3,6 +3,8 @@
 // passes the same power whatever the blade count.
 #pragma once
 
+#include <vector>
+
 namespace flare {
 
 class Iris {
@@ -13,6 +15,10 @@ public:
     Iris(int blades, double rotationRad, double curvature, double radiusMm);
 
     bool contains(double xMm, double yMm) const;
+    // A continuous measure of how far a point lies outside the opening: (r/ρ(φ))² − 1, where ρ(φ)
+    // is the opening's radius in the point's direction. Negative inside, zero on the edge (its sign
+    // agrees with contains() up to rounding). Used to locate the edge between traced rays.
+    double margin(double xMm, double yMm) const;
 
     int blades() const { return blades_; }
     double radiusMm() const { return radiusMm_; }          // area-equivalent radius
@@ -30,6 +36,7 @@ private:
     double sectorRad_ = 0.0;
     double arcCentreMm_ = 0.0;  // along the edge's mid-normal, from the iris centre
     double arcRadiusMm_ = 0.0;  // 0 for straight blades
+    std::vector<double> normalX_, normalY_;  // unit mid-normal of each edge, for margin()
 };
 
 }  // namespace flare

@@ -2,263 +2,222 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <numbers>
 #include <stdexcept>
 #include <string>
 
-#include <glm/geometric.hpp>
+#include <glm/common.hpp>
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
 
+#include "flare/BundleTracer.h"
 #include "flare/Paraxial.h"
-#include "flare/SequentialTracer.h"
+#include "flare/PupilMesh.h"
 
 namespace flare {
 
 namespace {
 
-struct Vertex {
-    bool valid = false;
-    glm::dvec2 pixel{0.0};  // continuous pixel coordinates in the full image (centres at i + 0.5)
-    double throughput = 0.0;
+constexpr int kBandRows = 32;  // image rows per rasterisation task
+
+// A triangle's image ready to rasterise (or, when small, a point spread bilinearly), in continuous
+// pixel coordinates (pixel centres at i + 0.5) of the full image. `value` is irradiance per unit
+// spectral weight: per covered pixel centre for a triangle, in all for a point.
+struct Primitive {
+    float x[3], y[3];  // a triangle's vertices sorted by y (a point: its position in x[0], y[0])
+    float slope[3];    // dx/dy of the edges 0→2, 0→1 and 1→2
+    float value;
+    int rowMin, rowMax;  // the rows it touches
+    bool point;
 };
 
-// Accumulates irradiance (XYZ) into a crop of the image. Everything here works in continuous pixel
-// coordinates; power arrives in W·mm²/m² (irradiance × pupil area) and leaves as W/m².
-class Raster {
-public:
-    Raster(int imageWidth, int imageHeight, double pixelMm, int x0, int y0, int x1, int y1)
-        : imageWidth_(imageWidth), imageHeight_(imageHeight), pixelAreaMm2_(pixelMm * pixelMm),
-          x0_(x0), y0_(y0), width_(std::max(0, x1 - x0)), height_(std::max(0, y1 - y0)),
-          xyz_(static_cast<size_t>(width_) * height_ * 3, 0.0f) {}
-
-    int x0() const { return x0_; }
-    int y0() const { return y0_; }
-    int width() const { return width_; }
-    int height() const { return height_; }
-    const std::vector<float>& xyz() const { return xyz_; }
-
-    // Adds power at p, spread bilinearly over the four nearest pixel centres, so that sub-pixel
-    // positions are kept and power is conserved.
-    void splat(const glm::dvec2& p, const glm::dvec3& power) {
-        const double fx = p.x - 0.5, fy = p.y - 0.5;
-        const int ix = static_cast<int>(std::floor(fx)), iy = static_cast<int>(std::floor(fy));
-        const double tx = fx - ix, ty = fy - iy;
-        add(ix, iy, power * ((1 - tx) * (1 - ty)));
-        add(ix + 1, iy, power * (tx * (1 - ty)));
-        add(ix, iy + 1, power * ((1 - tx) * ty));
-        add(ix + 1, iy + 1, power * (tx * ty));
-    }
-
-    // Spreads power uniformly over the pixel centres inside the triangle. Small triangles (a few
-    // pixels) count their centres exactly, also off the image, so that the share of power that
-    // falls off the sensor is dropped rather than piled onto the visible part.
-    void triangle(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c, const glm::dvec3& power) {
-        const double area = 0.5 * std::abs((b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y));
-        const glm::dvec2 lo = glm::min(a, glm::min(b, c)), hi = glm::max(a, glm::max(b, c));
-        if (area < 2.0 || hi.x - lo.x < 2.0 || hi.y - lo.y < 2.0) {
-            splat((a + b + c) / 3.0, power);
-            return;
-        }
-        const int rowBegin = static_cast<int>(std::ceil(lo.y - 0.5));
-        const int rowEnd = static_cast<int>(std::floor(hi.y - 0.5));
-        double centres = area;  // large triangles: the centre count equals the area to O(perimeter)
-        if (area <= 256.0) {
-            centres = 0.0;
-            for (int row = rowBegin; row <= rowEnd; ++row) {
-                int first = 0, last = -1;
-                if (span(a, b, c, row + 0.5, &first, &last)) centres += last - first + 1;
-            }
-            if (centres == 0.0) {
-                splat((a + b + c) / 3.0, power);
-                return;
-            }
-        }
-        const glm::dvec3 perCentre = power / centres;
-        for (int row = std::max(rowBegin, y0_); row <= std::min(rowEnd, y0_ + height_ - 1); ++row) {
-            int first = 0, last = -1;
-            if (!span(a, b, c, row + 0.5, &first, &last)) continue;
-            for (int column = std::max(first, x0_); column <= std::min(last, x0_ + width_ - 1); ++column)
-                add(column, row, perCentre);
-        }
-    }
-
-private:
-    // Pixel columns whose centres lie inside the triangle on the scanline y.
-    static bool span(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c, double y, int* first,
-                     int* last) {
-        double xl = 1e300, xr = -1e300;
-        const glm::dvec2* edges[3][2] = {{&a, &b}, {&b, &c}, {&c, &a}};
-        for (auto& e : edges) {
-            const glm::dvec2 &p = *e[0], &q = *e[1];
-            if ((y < p.y) == (y < q.y)) continue;  // the scanline does not cross this edge
-            const double x = p.x + (y - p.y) * (q.x - p.x) / (q.y - p.y);
-            xl = std::min(xl, x);
-            xr = std::max(xr, x);
-        }
-        if (xl > xr) return false;
-        *first = static_cast<int>(std::ceil(xl - 0.5));
-        *last = static_cast<int>(std::floor(xr - 0.5));
-        return *first <= *last;
-    }
-
-    void add(int column, int row, const glm::dvec3& power) {
-        if (column < x0_ || row < y0_ || column >= x0_ + width_ || row >= y0_ + height_) return;
-        if (column >= imageWidth_ || row >= imageHeight_) return;
-        float* p = &xyz_[(static_cast<size_t>(row - y0_) * width_ + (column - x0_)) * 3];
-        p[0] += static_cast<float>(power.x / pixelAreaMm2_);
-        p[1] += static_cast<float>(power.y / pixelAreaMm2_);
-        p[2] += static_cast<float>(power.z / pixelAreaMm2_);
-    }
-
-    int imageWidth_, imageHeight_;
-    double pixelAreaMm2_;
-    int x0_, y0_, width_, height_;
-    std::vector<float> xyz_;
-};
-
-struct PathRenderer {
-    const LensSystem& lens;
-    const SpectralIndices& indices;
-    const PupilGrid& grid;
-    SequentialPath path;
-    double pixelMm;
-    int edgeRefinement;
-    Raster& raster;
-    glm::dvec3 weight;  // irradiance × XYZ weight of this wavelength
-    long traced = 0;
-
-    Vertex trace(double a, double b) {
-        ++traced;
-        const TraceResult r = tracePath(lens, indices, grid.ray(a, b), path);
-        if (!r.ok()) return {};
-        const glm::dvec3& p = r.ray.originMm;
-        // Camera orientation: the sensor image rotated by 180°.
-        const glm::dvec2 pixel((0.5 * lens.sensor().widthMm - p.x) / pixelMm,
-                               (0.5 * lens.sensor().heightMm + p.y) / pixelMm);
-        return {true, pixel, r.throughput};
-    }
-
-    void emit(const Vertex& p, const Vertex& q, const Vertex& s, double pupilAreaMm2) {
-        const double throughput = (p.throughput + q.throughput + s.throughput) / 3.0;
-        raster.triangle(p.pixel, q.pixel, s.pixel, weight * (throughput * pupilAreaMm2));
-    }
-
-    // Cell [a, a + size] × [b, b + size] with its corners traced; subdivided where corners disagree.
-    void cell(double a, double b, double size, const Vertex& v00, const Vertex& v10, const Vertex& v01,
-              const Vertex& v11, int depth) {
-        const int valid = v00.valid + v10.valid + v01.valid + v11.valid;
-        if (valid == 0) return;
-        const double half = 0.5 * size * size;
-        if (valid < 4 && depth < edgeRefinement) {
-            const double h = 0.5 * size;
-            const Vertex m0 = trace(a + h, b), m1 = trace(a, b + h), mc = trace(a + h, b + h);
-            const Vertex m2 = trace(a + size, b + h), m3 = trace(a + h, b + size);
-            cell(a, b, h, v00, m0, m1, mc, depth + 1);
-            cell(a + h, b, h, m0, v10, mc, m2, depth + 1);
-            cell(a, b + h, h, m1, mc, v01, m3, depth + 1);
-            cell(a + h, b + h, h, mc, m2, m3, v11, depth + 1);
-            return;
-        }
-        if (valid == 4) {
-            emit(v00, v10, v11, half);
-            emit(v00, v11, v01, half);
-            return;
-        }
-        // A cell still cut by an edge at the finest level: each valid corner stands for a quarter
-        // of the cell (the trapezoid rule), deposited at the valid corners' mean image. This keeps
-        // the edge's power unbiased to first order instead of dropping the partial triangles.
-        glm::dvec2 centre(0.0);
-        double throughput = 0.0;
-        for (const Vertex* v : {&v00, &v10, &v01, &v11}) {
-            if (!v->valid) continue;
-            centre += v->pixel;
-            throughput += v->throughput;
-        }
-        raster.splat(centre / static_cast<double>(valid), weight * (throughput * 0.25 * size * size));
-    }
-
-    void render(double a0, double b0, double cellMm, int cellsA, int cellsB) {
-        std::vector<Vertex> previous(cellsA + 1), current(cellsA + 1);
-        for (int i = 0; i <= cellsA; ++i) previous[i] = trace(a0 + i * cellMm, b0);
-        for (int j = 1; j <= cellsB; ++j) {
-            for (int i = 0; i <= cellsA; ++i) current[i] = trace(a0 + i * cellMm, b0 + j * cellMm);
-            for (int i = 0; i < cellsA; ++i)
-                cell(a0 + i * cellMm, b0 + (j - 1) * cellMm, cellMm, previous[i], previous[i + 1], current[i],
-                     current[i + 1], 0);
-            std::swap(previous, current);
-        }
-    }
-};
-
-struct Crop {
-    int x0, y0, x1, y1;
-};
-
-// Pixels the estimate's footprint covers, with room for the shift of other wavelengths.
-Crop footprintCrop(const GhostEstimate& e, const LensSystem& lens, double pixelMm, int width, int height) {
-    const double halfW = 0.5 * lens.sensor().widthMm, halfH = 0.5 * lens.sensor().heightMm;
-    double xl = (halfW - e.footprintMaxMm.x) / pixelMm, xr = (halfW - e.footprintMinMm.x) / pixelMm;
-    double yt = (halfH + e.footprintMinMm.y) / pixelMm, yb = (halfH + e.footprintMaxMm.y) / pixelMm;
-    const double marginX = 0.15 * (xr - xl) + 0.03 * width + 4.0;
-    const double marginY = 0.15 * (yb - yt) + 0.03 * height + 4.0;
-    return {std::max(0, static_cast<int>(xl - marginX)), std::max(0, static_cast<int>(yt - marginY)),
-            std::min(width, static_cast<int>(xr + marginX) + 1), std::min(height, static_cast<int>(yb + marginY) + 1)};
+// Pixel columns whose centres lie inside the triangle on the scanline y: between the long edge
+// (0→2) and the short edge the scanline crosses (0→1 above vertex 1, 1→2 below). The same
+// function counts a triangle's centres and fills them, so that its power is spread exactly.
+bool span(const Primitive& p, double y, int* first, int* last) {
+    if (!(y >= p.y[0] && y < p.y[2])) return false;
+    const double along = p.x[0] + (y - p.y[0]) * p.slope[0];
+    const double across = y < p.y[1] ? p.x[0] + (y - p.y[0]) * p.slope[1] : p.x[1] + (y - p.y[1]) * p.slope[2];
+    const double xl = std::min(along, across), xr = std::max(along, across);
+    *first = static_cast<int>(std::ceil(xl - 0.5));
+    *last = static_cast<int>(std::floor(xr - 0.5));
+    return *first <= *last;
 }
 
-struct Rendered {
-    Crop crop{0, 0, 0, 0};
-    std::vector<float> xyz;
-    long traced = 0;
-};
-
-Rendered renderEstimate(const LensSystem& lens, const PreviewLight& light, const GhostReport& report,
-                        const GhostEstimate& estimate, double importance, const PreviewOptions& options,
-                        double pixelMm, bool fullImage) {
-    Rendered out;
-    if (estimate.pupil.empty() || estimate.powerFraction == 0.0) return out;
-    out.crop = fullImage ? Crop{0, 0, options.widthPx, options.heightPx}
-                         : footprintCrop(estimate, lens, pixelMm, options.widthPx, options.heightPx);
-    Raster raster(options.widthPx, options.heightPx, pixelMm, out.crop.x0, out.crop.y0, out.crop.x1, out.crop.y1);
-
-    // Grid: the live region grown by one analysis cell (other wavelengths shift it slightly), with
-    // cells sized so that their images are a few pixels across.
-    const LivePupilRegion& region = estimate.pupil;
-    const double a0 = region.aMinMm - region.cellMm, b0 = region.bMinMm - region.cellMm;
-    const double spanA = (region.cellsA + 2) * region.cellMm, spanB = (region.cellsB + 2) * region.cellMm;
-    const double footprintPx = std::max(estimate.footprintMaxMm.x - estimate.footprintMinMm.x,
-                                        estimate.footprintMaxMm.y - estimate.footprintMinMm.y) / pixelMm;
-    // Resolution follows size and power: a ghost 100× weaker than the strongest gets a coarser grid
-    // and one level less of edge refinement (its edges cannot be seen at the same exposure).
-    const int maxCells = importance >= 0.01 ? options.maxCells : std::max(options.minCells, options.maxCells / 2);
-    const int cells = std::clamp(static_cast<int>(footprintPx / options.pixelsPerCell), options.minCells, maxCells);
-    const int refinement = importance >= 0.01 ? options.edgeRefinement : std::max(1, options.edgeRefinement - 1);
-    const double cellMm = std::max(spanA, spanB) / cells;
-    const int cellsA = std::max(1, static_cast<int>(std::ceil(spanA / cellMm)));
-    const int cellsB = std::max(1, static_cast<int>(std::ceil(spanB / cellMm)));
-
-    SequentialPath path;
-    path.reflections = estimate.path.reflections;
-    for (const SpectralSample& sample : light.spectrum) {
-        const SpectralIndices indices = lens.indicesAt(sample.wavelengthNm);
-        PathRenderer renderer{lens, indices, report.grid, path, pixelMm, refinement, raster,
-                              light.irradiance * sample.xyzWeight};
-        renderer.render(a0, b0, cellMm, cellsA, cellsB);
-        out.traced += renderer.traced;
-    }
-    out.xyz = raster.xyz();
+Primitive point(const glm::dvec2& p, double value) {
+    Primitive out{{static_cast<float>(p.x), 0.0f, 0.0f}, {static_cast<float>(p.y), 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f},
+                  static_cast<float>(value), 0, 0, true};
+    out.rowMin = static_cast<int>(std::floor(p.y - 0.5));
+    out.rowMax = out.rowMin + 1;
     return out;
 }
 
-void addCrop(std::vector<float>& image, int width, const Rendered& r) {
-    const int cropWidth = r.crop.x1 - r.crop.x0;
-    for (int row = r.crop.y0; row < r.crop.y1; ++row)
-        for (int column = r.crop.x0; column < r.crop.x1; ++column) {
-            const float* src = &r.xyz[(static_cast<size_t>(row - r.crop.y0) * cropWidth + (column - r.crop.x0)) * 3];
-            float* dst = &image[(static_cast<size_t>(row) * width + column) * 3];
-            dst[0] += src[0];
-            dst[1] += src[1];
-            dst[2] += src[2];
+// Power (irradiance × pupil area / pixel area, per unit spectral weight) spread uniformly over the
+// pixel centres inside the triangle. Small triangles (a few pixels) count their centres exactly,
+// also off the image, so that the share of power that falls off the sensor is dropped rather than
+// piled onto the visible part; tiny ones become points (bilinear splats, which keep sub-pixel
+// positions and conserve power).
+Primitive triangle(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c, double power) {
+    const double area = 0.5 * std::abs((b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y));
+    const glm::dvec2 lo = glm::min(a, glm::min(b, c)), hi = glm::max(a, glm::max(b, c));
+    if (area < 2.0 || hi.x - lo.x < 2.0 || hi.y - lo.y < 2.0) return point((a + b + c) / 3.0, power);
+    glm::dvec2 v[3] = {a, b, c};
+    std::sort(v, v + 3, [](const glm::dvec2& p, const glm::dvec2& q) { return p.y < q.y; });
+    Primitive out{{static_cast<float>(v[0].x), static_cast<float>(v[1].x), static_cast<float>(v[2].x)},
+                  {static_cast<float>(v[0].y), static_cast<float>(v[1].y), static_cast<float>(v[2].y)},
+                  {0.0f, 0.0f, 0.0f},
+                  0.0f, static_cast<int>(std::ceil(lo.y - 0.5)), static_cast<int>(std::floor(hi.y - 0.5)), false};
+    auto slope = [&](int from, int to) {
+        const double dy = static_cast<double>(out.y[to]) - out.y[from];
+        return dy != 0.0 ? static_cast<float>((static_cast<double>(out.x[to]) - out.x[from]) / dy) : 0.0f;
+    };
+    out.slope[0] = slope(0, 2);
+    out.slope[1] = slope(0, 1);
+    out.slope[2] = slope(1, 2);
+    double centres = area;  // large triangles: the centre count equals the area to O(perimeter)
+    if (area <= 256.0) {
+        centres = 0.0;
+        for (int row = out.rowMin; row <= out.rowMax; ++row) {
+            int first = 0, last = -1;
+            if (span(out, row + 0.5, &first, &last)) centres += last - first + 1;
         }
+        if (centres == 0.0) return point((a + b + c) / 3.0, power);
+    }
+    out.value = static_cast<float>(power / centres);
+    return out;
+}
+
+// Adds a primitive's rows within [rowBegin, rowEnd] to an XYZ image, times the spectral weight.
+void rasterise(const Primitive& p, const glm::dvec3& weight, int rowBegin, int rowEnd, int width, int height,
+               std::vector<float>& xyz) {
+    auto add = [&](int column, int row, double value) {
+        if (column < 0 || row < rowBegin || column >= width || row > rowEnd || row >= height || row < 0) return;
+        float* q = &xyz[(static_cast<size_t>(row) * width + column) * 3];
+        q[0] += static_cast<float>(value * weight.x);
+        q[1] += static_cast<float>(value * weight.y);
+        q[2] += static_cast<float>(value * weight.z);
+    };
+    if (p.point) {
+        const double fx = p.x[0] - 0.5, fy = p.y[0] - 0.5;
+        const int ix = static_cast<int>(std::floor(fx)), iy = static_cast<int>(std::floor(fy));
+        const double tx = fx - ix, ty = fy - iy;
+        add(ix, iy, p.value * ((1 - tx) * (1 - ty)));
+        add(ix + 1, iy, p.value * (tx * (1 - ty)));
+        add(ix, iy + 1, p.value * ((1 - tx) * ty));
+        add(ix + 1, iy + 1, p.value * (tx * ty));
+        return;
+    }
+    const float v[3] = {static_cast<float>(p.value * weight.x), static_cast<float>(p.value * weight.y),
+                        static_cast<float>(p.value * weight.z)};
+    const int top = std::max({p.rowMin, rowBegin, 0}), bottom = std::min({p.rowMax, rowEnd, height - 1});
+    for (int row = top; row <= bottom; ++row) {
+        int first = 0, last = -1;
+        if (!span(p, row + 0.5, &first, &last)) continue;
+        first = std::max(first, 0);
+        last = std::min(last, width - 1);
+        float* q = &xyz[(static_cast<size_t>(row) * width + first) * 3];
+        for (int column = first; column <= last; ++column, q += 3) {
+            q[0] += v[0];
+            q[1] += v[1];
+            q[2] += v[2];
+        }
+    }
+}
+
+// One ghost (or the direct image) at one wavelength: its primitives bucketed by the band of their
+// first row, so that a band task finds the primitives touching it without scanning all of them.
+struct Job {
+    const GhostEstimate* estimate = nullptr;
+    size_t wavelength = 0;
+    double importance = 1.0;
+    double cost = 0.0;
+    std::vector<Primitive> primitives;
+    std::vector<int> bandStart;  // primitives of band b: [bandStart[b], bandStart[b + 1])
+    int maxBandSpan = 0;
+    long traced = 0;
+};
+
+void bucket(Job& job, int height) {
+    const int bands = (height + kBandRows - 1) / kBandRows;
+    std::erase_if(job.primitives, [&](const Primitive& p) { return p.rowMax < 0 || p.rowMin >= height; });
+    auto band = [&](int row) { return std::clamp(row / kBandRows, 0, bands - 1); };
+    std::vector<int> counts(bands + 1, 0);
+    for (const Primitive& p : job.primitives) {
+        ++counts[band(p.rowMin) + 1];
+        job.maxBandSpan = std::max(job.maxBandSpan, band(p.rowMax) - band(std::max(p.rowMin, 0)));
+    }
+    for (int b = 0; b < bands; ++b) counts[b + 1] += counts[b];
+    job.bandStart = counts;
+    std::vector<Primitive> sorted(job.primitives.size());
+    for (const Primitive& p : job.primitives) sorted[counts[band(p.rowMin)]++] = p;  // stable
+    job.primitives.swap(sorted);
+}
+
+// Adds the job's primitives touching rows [rowBegin, rowEnd] (within one band) to the image.
+void rasteriseBand(const Job& job, const glm::dvec3& weight, int band, int width, int height, std::vector<float>& xyz) {
+    if (job.primitives.empty()) return;
+    const int rowBegin = band * kBandRows, rowEnd = std::min(height, rowBegin + kBandRows) - 1;
+    for (int b = std::max(0, band - job.maxBandSpan); b <= band; ++b)
+        for (int k = job.bandStart[b]; k < job.bandStart[b + 1]; ++k) {
+            const Primitive& p = job.primitives[k];
+            if (p.rowMax >= rowBegin) rasterise(p, weight, rowBegin, rowEnd, width, height, xyz);
+        }
+}
+
+// The grid level whose cells, across the region's larger side, number at least `cells`/√2: levels
+// go in factors of two, and the nearest level (in ratio) costs up to four times fewer rays than
+// the next finer one for a look that differs little.
+int levelFor(const PupilLattice& lattice, int cells) {
+    if (lattice.empty()) return 0;
+    long iMin = 1L << 40, iMax = -1, jMin = 1L << 40, jMax = -1;
+    int deepest = 0;
+    for (const PupilLattice::Leaf& l : lattice.leaves) deepest = std::max(deepest, l.level);
+    for (const PupilLattice::Leaf& l : lattice.leaves) {
+        const int shift = deepest - l.level;
+        iMin = std::min(iMin, l.i << shift), iMax = std::max(iMax, ((l.i + 1) << shift) - 1);
+        jMin = std::min(jMin, l.j << shift), jMax = std::max(jMax, ((l.j + 1) << shift) - 1);
+    }
+    const double spanMm = static_cast<double>(std::max(iMax - iMin, jMax - jMin) + 1) * lattice.cellMm(deepest);
+    int level = 0;
+    while (spanMm / lattice.cellMm(level) < cells * std::sqrt(0.5) && level < 16) ++level;
+    return level;
+}
+
+// Rays a job will trace, for ordering the jobs (largest first balances the threads).
+double estimatedRays(const PupilLattice& lattice, int level) {
+    double rays = 0.0;
+    for (const PupilLattice::Leaf& l : lattice.leaves) rays += std::ldexp(1.0, 2 * std::max(0, level - l.level));
+    return rays;
+}
+
+void render(Job& job, const LensSystem& lens, const GhostReport& report, const std::vector<SpectralIndices>& indices,
+            const std::vector<std::unique_ptr<InterfaceTables>>& tables, const PreviewOptions& options, double pixelMm) {
+    const GhostEstimate& e = *job.estimate;
+    const BundleTracer tracer(lens, indices[job.wavelength], e.path.reflections, true, tables[job.wavelength].get());
+    const double footprintPx =
+        std::max(e.footprintMaxMm.x - e.footprintMinMm.x, e.footprintMaxMm.y - e.footprintMinMm.y) / pixelMm;
+    // Resolution follows size and power: a ghost 100× weaker than the strongest gets a coarser grid
+    // (its edges cannot be seen at the same exposure); its power stays exact to second order.
+    const int maxCells = job.importance >= 0.01 ? options.maxCells : std::max(options.minCells, options.maxCells / 2);
+    const int cells = std::clamp(static_cast<int>(footprintPx / options.pixelsPerCell), options.minCells, maxCells);
+    PupilRemeshOptions remesh;
+    remesh.minLevel = levelFor(e.lattice, cells);
+    remesh.bisections = options.edgeRefinement;
+    remesh.requireOnSensor = true;
+    const PupilMesh mesh = remeshLiveRegion(tracer, report.grid, e.lattice, remesh);
+    job.traced = mesh.tracedRays;
+
+    // Camera orientation: the sensor image rotated by 180°.
+    const double halfW = 0.5 * lens.sensor().widthMm, halfH = 0.5 * lens.sensor().heightMm;
+    auto pixel = [&](const glm::dvec2& p) { return glm::dvec2((halfW - p.x) / pixelMm, (halfH + p.y) / pixelMm); };
+    const double pixelAreaMm2 = pixelMm * pixelMm;
+    job.primitives.reserve(mesh.triangles.size());
+    for (const PupilTriangle& t : mesh.triangles)
+        job.primitives.push_back(triangle(pixel(t.v[0].sensorMm), pixel(t.v[1].sensorMm), pixel(t.v[2].sensorMm),
+                                          t.power() / pixelAreaMm2));
+    bucket(job, options.heightPx);
 }
 
 // An extended source (the sun's disk) images as a disk of radius EFL·tan(α/2): convolve the
@@ -302,35 +261,83 @@ PreviewImage renderPreview(const LensSystem& lens, const PreviewLight& light, co
                                     std::to_string(options.heightPx) + " pixels do not match the " +
                                     std::to_string(lens.sensor().widthMm) + "×" +
                                     std::to_string(lens.sensor().heightMm) + " mm sensor with square pixels");
-    const size_t size = static_cast<size_t>(options.widthPx) * options.heightPx * 3;
+    const int width = options.widthPx, height = options.heightPx;
+    const size_t size = static_cast<size_t>(width) * height * 3;
 
     std::vector<const GhostEstimate*> kept;
     for (const GhostEstimate& g : report.ghosts)
         if (!g.pruned) kept.push_back(&g);
-
     const double strongest = kept.empty() ? 0.0 : kept.front()->powerFraction;
-    std::vector<Rendered> rendered(kept.size() + 1);
-    tbb::parallel_for(size_t{0}, kept.size() + 1, [&](size_t i) {
-        const GhostEstimate& e = i == kept.size() ? report.direct : *kept[i];
-        const double importance = i == kept.size() ? 1.0 : e.powerFraction / strongest;
-        rendered[i] = renderEstimate(lens, light, report, e, importance, options, image.pixelMm, false);
-    });
 
+    // The indices of every medium, once per wavelength.
+    std::vector<SpectralIndices> indices;
+    std::vector<glm::dvec3> weights;  // irradiance × XYZ weight of each wavelength
+    for (const SpectralSample& s : light.spectrum) {
+        indices.push_back(lens.indicesAt(s.wavelengthNm));
+        weights.push_back(light.irradiance * s.xyzWeight);
+    }
+    const size_t lambdas = indices.size();
+    std::vector<std::unique_ptr<InterfaceTables>> tables(lambdas);
+    tbb::parallel_for(size_t{0}, lambdas, [&](size_t w) { tables[w] = std::make_unique<InterfaceTables>(lens, indices[w]); });
+
+    // Jobs: (kept ghost or the direct image) × wavelength; jobs[k * lambdas + w], the direct
+    // image last. Each traces its own mesh and stores its primitives.
+    std::vector<Job> jobs((kept.size() + 1) * lambdas);
+    for (size_t k = 0; k <= kept.size(); ++k)
+        for (size_t w = 0; w < lambdas; ++w) {
+            Job& job = jobs[k * lambdas + w];
+            job.estimate = k == kept.size() ? &report.direct : kept[k];
+            job.wavelength = w;
+            job.importance = k == kept.size() ? 1.0 : job.estimate->powerFraction / strongest;
+            const int steps = static_cast<int>(job.estimate->path.reflections.size() + 1) * lens.surfaceCount();
+            job.cost = estimatedRays(job.estimate->lattice, 0) * steps;
+        }
+    std::vector<size_t> order(jobs.size());
+    for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return jobs[a].cost > jobs[b].cost; });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, order.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t i = range.begin(); i != range.end(); ++i) {
+            Job& job = jobs[order[i]];
+            if (job.estimate->lattice.empty() || job.estimate->powerFraction == 0.0) continue;
+            render(job, lens, report, indices, tables, options, image.pixelMm);
+        }
+    }, tbb::simple_partitioner());
+
+    // Rasterisation, in bands of rows: each pixel receives its additions in one fixed order
+    // (ghost, wavelength, primitive) whatever the number of threads, so the image is the same.
+    const int bands = (height + kBandRows - 1) / kBandRows;
     image.direct = {"direct", std::vector<float>(size, 0.0f)};
-    addCrop(image.direct.xyz, options.widthPx, rendered.back());
+    image.ghosts = {"ghost", std::vector<float>(size, 0.0f)};
+    tbb::parallel_for(tbb::blocked_range<int>(0, bands, 1), [&](const tbb::blocked_range<int>& range) {
+        for (int b = range.begin(); b != range.end(); ++b) {
+            for (size_t w = 0; w < lambdas; ++w)
+                rasteriseBand(jobs[kept.size() * lambdas + w], weights[w], b, width, height, image.direct.xyz);
+            for (size_t k = 0; k < kept.size(); ++k)
+                for (size_t w = 0; w < lambdas; ++w)
+                    rasteriseBand(jobs[k * lambdas + w], weights[w], b, width, height, image.ghosts.xyz);
+        }
+    }, tbb::simple_partitioner());
     const double efl = std::abs(analyseParaxial(lens, kLineDNm).eflMm);
-    blurDisk(image.direct.xyz, options.widthPx, options.heightPx,
+    blurDisk(image.direct.xyz, width, height,
              efl * std::tan(0.5 * light.angularDiameterDeg * std::numbers::pi / 180.0) / image.pixelMm);
 
-    image.ghosts = {"ghost", std::vector<float>(size, 0.0f)};
-    for (size_t i = 0; i < kept.size(); ++i) {
-        addCrop(image.ghosts.xyz, options.widthPx, rendered[i]);
-        image.tracedRays.push_back(rendered[i].traced);
-        if (options.perGhostLayers) {
-            XyzLayer layer{kept[i]->path.label(), std::vector<float>(size, 0.0f)};
-            addCrop(layer.xyz, options.widthPx, rendered[i]);
-            image.perGhost.push_back(std::move(layer));
-        }
+    for (size_t k = 0; k < kept.size(); ++k) {
+        long traced = 0;
+        for (size_t w = 0; w < lambdas; ++w) traced += jobs[k * lambdas + w].traced;
+        image.tracedRays.push_back(traced);
+    }
+    if (options.perGhostLayers) {
+        image.perGhost.resize(kept.size());
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, kept.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
+            for (size_t k = range.begin(); k != range.end(); ++k) {
+                XyzLayer& layer = image.perGhost[k];
+                layer.name = kept[k]->path.label();
+                layer.xyz.assign(size, 0.0f);
+                for (int b = 0; b < bands; ++b)
+                    for (size_t w = 0; w < lambdas; ++w)
+                        rasteriseBand(jobs[k * lambdas + w], weights[w], b, width, height, layer.xyz);
+            }
+        }, tbb::simple_partitioner());
     }
     return image;
 }

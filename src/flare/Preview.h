@@ -1,9 +1,12 @@
-// The deterministic ghost preview: for each ghost path, a grid of rays over the part of the pupil
-// grid that survives the path is traced through the forced sequence at a few wavelengths; each
-// grid cell is split into two triangles whose power (mean throughput × pupil area × incident
-// irradiance) is spread over the triangle's image on the sensor. Irradiance thus comes from the
-// change of cell area between pupil and sensor; folded cells overlap and add instead of being
-// smeared, and cells cut by the iris or an aperture are subdivided so that edges stay sharp.
+// The deterministic ghost preview: for each ghost path and each of a few wavelengths, the rays
+// over the live pupil region that the ghost analysis found (on the cells of its adaptive search,
+// split to the resolution the ghost's image needs) are traced through the forced sequence, and the
+// region is meshed (PupilMesh): cells with four live corners give two triangles, cells cut by the
+// region's edge (the iris, an aperture, the sensor's edge) give the polygon of their live part,
+// with its vertices placed on the edge. Each triangle's power (mean throughput × pupil area ×
+// incident irradiance) is spread over the triangle's image on the sensor, so irradiance comes from
+// the change of area between pupil and sensor; folded cells overlap and add instead of being
+// smeared, and edges stay sharp at any grid resolution.
 #pragma once
 
 #include <string>
@@ -26,12 +29,14 @@ struct PreviewOptions {
     int heightPx = 1024;
     bool perGhostLayers = false;
     // Grid cells across a ghost's pupil region: the throughput and the pupil→sensor map are smooth
-    // inside the region, so triangles interpolate them well from a coarse grid; resolution goes
-    // where it matters, to the cells cut by the iris or an aperture, which are subdivided.
+    // inside the region, so triangles interpolate them well from a coarse grid, and the region's
+    // edge is placed between grid points by the rays' margins (BundleTracer), not by subdivision.
     int minCells = 12;
     int maxCells = 48;
     double pixelsPerCell = 24.0;  // target size of a grid cell's image, in pixels
-    int edgeRefinement = 4;       // subdivision levels for cells cut by an edge (16× finer)
+    // Bisection steps for an edge point where no margin can place it (a missed surface): each
+    // halves the uncertainty.
+    int edgeRefinement = 6;
 };
 
 // Sensor irradiance in CIE XYZ (W/m² weighted by the colour-matching functions, Y = 1 for the
@@ -51,9 +56,11 @@ struct PreviewImage {
     std::vector<long> tracedRays;   // per kept ghost, for statistics
 };
 
-// Renders the direct image and every ghost of `report` that is not pruned. Deterministic: ghosts
-// are rendered in parallel into their own buffers and summed in report order. The pixels must be
-// square (widthPx/heightPx = the sensor's aspect), else std::invalid_argument.
+// Renders the direct image and every ghost of `report` that is not pruned. Deterministic whatever
+// the number of threads: ghosts are meshed in parallel, and the image is rasterised in bands of
+// rows, each pixel receiving its additions in report order. No per-ghost image buffers unless
+// perGhostLayers. The pixels must be square (widthPx/heightPx = the sensor's aspect), else
+// std::invalid_argument.
 PreviewImage renderPreview(const LensSystem& lens, const PreviewLight& light, const GhostReport& report,
                            const PreviewOptions& options);
 

@@ -3,6 +3,9 @@
 // photon emission. The plane passes through the first vertex; (a, b) are millimetres along e1, e2.
 #pragma once
 
+#include <vector>
+
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
 #include "flare/LensSystem.h"
@@ -29,6 +32,24 @@ struct PupilGrid {
     // Area of the front clear aperture projected on the plane (mm²): the cross-section of the
     // beam that enters the lens. Counted on a cells × cells grid.
     double enteringAreaMm2(const LensSystem& lens, int cells) const;
+};
+
+// Cells of a quadtree lattice over a square window of the pupil plane: level 0 has baseCells ×
+// baseCells cells; a cell (level, i, j) spans [i, i + 1) × [j, j + 1) cells of size
+// windowSizeMm / (baseCells · 2^level) from windowMinMm. The leaves of an adaptive search
+// (PupilMesh), kept so that other wavelengths can be traced on the same cells.
+struct PupilLattice {
+    struct Leaf {
+        int level = 0;
+        long i = 0, j = 0;
+    };
+    glm::dvec2 windowMinMm{0.0};
+    double windowSizeMm = 0.0;
+    int baseCells = 1;
+    std::vector<Leaf> leaves;
+
+    double cellMm(int level) const { return windowSizeMm / static_cast<double>(static_cast<long>(baseCells) << level); }
+    bool empty() const { return leaves.empty(); }
 };
 
 }  // namespace flare

@@ -49,60 +49,34 @@ glm::dvec3 Surface::normalAt(const glm::dvec3& p) const {
     return glm::normalize(glm::dvec3(-2.0 * s * p.x, -2.0 * s * p.y, 1.0));
 }
 
-namespace {
-
-// Roots of a t² + 2 b t + c = 0 without cancellation. Returns the number of real roots.
-int solveQuadratic(double a, double b, double c, double* t0, double* t1) {
-    if (a == 0.0) {
-        if (b == 0.0) return 0;
-        *t0 = *t1 = -c / (2.0 * b);
-        return 1;
-    }
-    const double disc = b * b - a * c;
-    if (disc < 0.0) return 0;
-    const double q = -(b + std::copysign(std::sqrt(disc), b));
-    *t0 = q / a;
-    *t1 = q != 0.0 ? c / q : *t0;
-    if (*t0 > *t1) std::swap(*t0, *t1);
-    return 2;
-}
-
-// Intersection with the conic part (polynomial terms ignored), in vertex-local coordinates.
-// The conic r² − 2Rz + (1+k)z² = 0 is written with curvature c as c r² − 2z + c(1+k)z² = 0, which
-// stays finite for a plane (c = 0). The vertex branch satisfies 1 − c(1+k)z > 0.
-SurfaceHit intersectConic(const Surface& s, const glm::dvec3& o, const glm::dvec3& d, double tMin) {
-    const double c = s.curvature();
-    const double k1 = 1.0 + s.conic;
-    const double a = c * (d.x * d.x + d.y * d.y + k1 * d.z * d.z);
-    const double b = c * (o.x * d.x + o.y * d.y + k1 * o.z * d.z) - d.z;
-    const double cc = c * (o.x * o.x + o.y * o.y + k1 * o.z * o.z) - 2.0 * o.z;
-    double t0 = 0.0, t1 = 0.0;
-    if (solveQuadratic(a, b, cc, &t0, &t1) == 0) return {};
-    for (double t : {t0, t1}) {
-        if (t <= tMin) continue;
-        const double z = o.z + t * d.z;
-        if (1.0 - c * k1 * z > 0.0) return {HitStatus::Hit, t};
-    }
-    return {};
-}
-
-}  // namespace
-
 SurfaceHit intersect(const Surface& s, const Ray& ray, double tMinMm) {
     const glm::dvec3 o = ray.originMm - glm::dvec3(0.0, 0.0, s.vertexZMm);
     const glm::dvec3& d = ray.direction;
     SurfaceHit hit = intersectConic(s, o, d, tMinMm);
     if (!s.hasPolynomial()) return hit;
 
-    // Newton on F(t) = z(t) − sag(r²(t)), started from the conic hit (or the vertex plane).
+    // Newton on F(t) = z(t) − sag(r²(t)), started from the conic hit (or the vertex plane). The
+    // sag and its slope are evaluated together (the values of sagMm and sagSlope, sharing the
+    // curvature, the square root and the powers of r²): this loop is most of an asphere's cost.
+    const double c = s.curvature();
+    const double conicFactor = (1.0 + s.conic) * c * c;
     double t = hit.status == HitStatus::Hit ? hit.tMm : (d.z != 0.0 ? -o.z / d.z : 0.0);
     for (int i = 0; i < kMaxNewtonIterations; ++i) {
         const glm::dvec3 p = o + t * d;
         const double r2 = p.x * p.x + p.y * p.y;
-        double sag = 0.0;
-        if (!s.sagMm(r2, &sag)) return {HitStatus::NewtonDiverged, 0.0};
+        const double q = 1.0 - conicFactor * r2;
+        if (q < 0.0) return {HitStatus::NewtonDiverged, 0.0};
+        const double root = std::sqrt(q);
+        double sag = c * r2 / (1.0 + root);
+        double slope = q > 0.0 ? 0.5 * c / root : 0.0;
+        double power = r2;  // r^(2k−2) for the term A_{2k} r^{2k}, k = m + 2
+        for (int m = 0; m < kAsphereTerms; ++m) {
+            slope += (m + 2) * s.asphere[m] * power;
+            power *= r2;
+            sag += s.asphere[m] * power;
+        }
         const double f = p.z - sag;
-        const double df = d.z - 2.0 * s.sagSlope(r2) * (p.x * d.x + p.y * d.y);
+        const double df = d.z - 2.0 * slope * (p.x * d.x + p.y * d.y);
         if (df == 0.0 || !std::isfinite(df)) return {HitStatus::NewtonDiverged, 0.0};
         const double step = f / df;
         t -= step;

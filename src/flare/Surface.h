@@ -3,7 +3,9 @@
 // iris). Sag is measured from the surface's vertex along +z.
 #pragma once
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 
 #include "flare/Ray.h"
@@ -47,5 +49,43 @@ struct SurfaceHit {
 // refined by Newton's method from the conic solution, at most kMaxNewtonIterations steps.
 inline constexpr int kMaxNewtonIterations = 32;
 SurfaceHit intersect(const Surface& surface, const Ray& ray, double tMinMm = 1e-9);
+
+// The two helpers below are inline so that batch tracers (BundleTracer) compile the same
+// operations as intersect() into their own loops and get the same results to the last bit.
+
+// Roots of a t² + 2 b t + c = 0 without cancellation. Returns the number of real roots.
+inline int solveQuadratic(double a, double b, double c, double* t0, double* t1) {
+    if (a == 0.0) {
+        if (b == 0.0) return 0;
+        *t0 = *t1 = -c / (2.0 * b);
+        return 1;
+    }
+    const double disc = b * b - a * c;
+    if (disc < 0.0) return 0;
+    const double q = -(b + std::copysign(std::sqrt(disc), b));
+    *t0 = q / a;
+    *t1 = q != 0.0 ? c / q : *t0;
+    if (*t0 > *t1) std::swap(*t0, *t1);
+    return 2;
+}
+
+// Intersection with the conic part (polynomial terms ignored), in vertex-local coordinates.
+// The conic r² − 2Rz + (1+k)z² = 0 is written with curvature c as c r² − 2z + c(1+k)z² = 0, which
+// stays finite for a plane (c = 0). The vertex branch satisfies 1 − c(1+k)z > 0.
+inline SurfaceHit intersectConic(const Surface& s, const glm::dvec3& o, const glm::dvec3& d, double tMin) {
+    const double c = s.curvature();
+    const double k1 = 1.0 + s.conic;
+    const double a = c * (d.x * d.x + d.y * d.y + k1 * d.z * d.z);
+    const double b = c * (o.x * d.x + o.y * d.y + k1 * o.z * d.z) - d.z;
+    const double cc = c * (o.x * o.x + o.y * o.y + k1 * o.z * o.z) - 2.0 * o.z;
+    double t0 = 0.0, t1 = 0.0;
+    if (solveQuadratic(a, b, cc, &t0, &t1) == 0) return {};
+    for (double t : {t0, t1}) {
+        if (t <= tMin) continue;
+        const double z = o.z + t * d.z;
+        if (1.0 - c * k1 * z > 0.0) return {HitStatus::Hit, t};
+    }
+    return {};
+}
 
 }  // namespace flare

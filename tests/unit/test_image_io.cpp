@@ -88,6 +88,43 @@ TEST_F(ImageIOTest, ExrRoundTripsLayersExactlyWithNamesAndMetadata) {
     EXPECT_EQ(file.header().channels().findChannel("ghosts.G")->type, Imf::FLOAT);
 }
 
+TEST_F(ImageIOTest, HalfAndHalfPrecisionLayersKeepElevenSignificantBits) {
+    // A weak layer, 1e-12 to 1e-6 (below half's normal range), and one within half's range.
+    ImageLayer wide{"wide", 8, 4, std::vector<float>(8 * 4 * 3)};
+    ImageLayer fits{"fits", 8, 4, std::vector<float>(8 * 4 * 3)};
+    for (size_t i = 0; i < wide.rgb.size(); ++i) {
+        wide.rgb[i] = static_cast<float>(1e-12 * std::pow(10.0, 6.0 * i / (wide.rgb.size() - 1))) * (i % 2 ? -1.0f : 1.0f);
+        fits.rgb[i] = static_cast<float>(1e-3 + 3.7 * i);
+    }
+    EXPECT_FALSE(fitsHalf(wide));
+    EXPECT_TRUE(fitsHalf(fits));
+    const ImageLayer exact = makeLayer("", 8, 4, 0.123456789f);
+    ExrWriteOptions options;
+    options.storage["fits"] = ExrStorage::Half;
+    options.storage["wide"] = ExrStorage::FloatHalfPrecision;
+    writeExr(path("half.exr"), {exact, wide, fits}, {}, options);
+
+    const std::vector<ImageLayer> back = readExr(path("half.exr"));
+    ASSERT_EQ(back.size(), 3u);  // "", fits, wide
+    EXPECT_EQ(back[0].rgb, exact.rgb);  // not named: 32-bit float, exact
+    // Rounded to nearest at 11 significant bits: relative error at most half a unit in the last
+    // place, 2⁻¹¹.
+    for (size_t i = 0; i < fits.rgb.size(); ++i) EXPECT_NEAR(back[1].rgb[i], fits.rgb[i], std::ldexp(std::abs(fits.rgb[i]), -11));
+    for (size_t i = 0; i < wide.rgb.size(); ++i) EXPECT_NEAR(back[2].rgb[i], wide.rgb[i], std::ldexp(std::abs(wide.rgb[i]), -11));
+    Imf::InputFile file(path("half.exr").c_str());
+    EXPECT_EQ(file.header().channels().findChannel("fits.R")->type, Imf::HALF);
+    EXPECT_EQ(file.header().channels().findChannel("wide.R")->type, Imf::FLOAT);
+    EXPECT_EQ(file.header().channels().findChannel("G")->type, Imf::FLOAT);
+
+    // Beyond half's range is a programming error, and so is storage for a layer that is not there.
+    ImageLayer big = fits;
+    big.rgb[5] = 70000.0f;
+    EXPECT_THROW(writeExr(path("big.exr"), {big}, {}, options), std::logic_error);
+    EXPECT_THROW(writeExr(path("none.exr"), {exact}, {}, options), std::invalid_argument);
+    EXPECT_FALSE(fs::exists(path("big.exr")) || fs::exists(path("big.exr.partial")));
+    EXPECT_FALSE(fs::exists(path("none.exr")) || fs::exists(path("none.exr.partial")));
+}
+
 TEST_F(ImageIOTest, ChromaticitiesAttributeIsRec709WithD65White) {
     writeExr(path("c.exr"), {makeLayer("", 2, 2, 1.0f)}, {});
     Imf::InputFile file(path("c.exr").c_str());

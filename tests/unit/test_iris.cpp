@@ -1,4 +1,5 @@
 // The iris: circular and polygonal openings, with area equal to the nominal circle.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <numbers>
@@ -60,6 +61,30 @@ TEST(Iris, FullyCurvedBladesAreTheCircumcircle) {
         const double a = i * std::numbers::pi / 180.0;
         EXPECT_TRUE(iris.contains(4.999 * std::cos(a), 4.999 * std::sin(a)));
         EXPECT_FALSE(iris.contains(5.001 * std::cos(a), 5.001 * std::sin(a)));
+    }
+}
+
+TEST(Iris, MarginIsNegativeExactlyInsideAndContinuous) {
+    for (int blades : {0, 3, 6, 9}) {
+        for (double curvature : {0.0, 0.7, 1.0}) {
+            const Iris iris(blades, 0.3, curvature, 5.0);
+            const double half = 1.2 * iris.circumradiusMm();
+            const int grid = 301;
+            const double step = 2.0 * half / (grid - 1);
+            for (int i = 0; i < grid; ++i)
+                for (int j = 0; j < grid; ++j) {
+                    const double x = -half + i * step, y = -half + j * step;
+                    const double m = iris.margin(x, y);
+                    // The sign decides the same as contains() except within rounding of the edge.
+                    if (std::abs(m) > 1e-12)
+                        ASSERT_EQ(m < 0.0, iris.contains(x, y)) << blades << " blades at " << x << ", " << y;
+                    // Continuity: over one grid step the margin (≈ r²/ρ² − 1, ρ ≥ the apothem)
+                    // changes by at most about 2·r·step/ρ², with slack for the bowed blades.
+                    const double rho = iris.circumradiusMm() * std::cos(std::numbers::pi / std::max(blades, 3));
+                    const double bound = 4.0 * (std::hypot(x, y) + step) * step / (rho * rho) + 1e-12;
+                    EXPECT_LE(std::abs(iris.margin(x + step, y) - m), bound) << blades << " blades";
+                }
+        }
     }
 }
 

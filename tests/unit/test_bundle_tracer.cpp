@@ -1,0 +1,146 @@
+// The bundle tracer against tracePath (bit for bit), its step-by-step form against its whole-path
+// form, its margins against the clipping tests, and the tabulated interface factors against
+// interfaceResponse.
+#include <cmath>
+#include <random>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "TestUtil.h"
+#include "flare/BundleTracer.h"
+#include "flare/Ghosts.h"
+
+namespace flare {
+namespace {
+
+// A lattice of pupil points over the whole grid, so that rays meet every kind of failure.
+std::vector<glm::dvec2> lattice(const PupilGrid& grid, int n) {
+    std::vector<glm::dvec2> points;
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i)
+            points.push_back({-grid.halfSizeMm + (i + 0.5) * 2.0 * grid.halfSizeMm / n,
+                              -grid.halfSizeMm + (j + 0.5) * 2.0 * grid.halfSizeMm / n});
+    return points;
+}
+
+TEST(BundleTracer, EqualsTracePathBitForBitOnEveryShippedLens) {
+    for (const char* file : test::kShippedLenses) {
+        const LensSystem lens = test::loadLens(file);
+        const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(9.0, 6.0));
+        const SpectralIndices indices = lens.indicesAt(520.0);
+        std::vector<GhostPath> paths = enumerateGhosts(lens, 2, true);
+        paths.insert(paths.begin(), GhostPath{});  // the direct path
+        const std::vector<glm::dvec2> points = lattice(grid, 20);
+        long ok = 0;
+        for (size_t p = 0; p < paths.size(); p += 3) {  // every third path keeps the test short
+            const BundleTracer tracer(lens, indices, paths[p].reflections);
+            std::vector<BundleLanding> landings(points.size());
+            tracer.trace(grid, points, landings);
+            SequentialPath path;
+            path.reflections = paths[p].reflections;
+            for (size_t i = 0; i < points.size(); ++i) {
+                const TraceResult r = tracePath(lens, indices, grid.ray(points[i].x, points[i].y), path);
+                ASSERT_EQ(landings[i].status, r.status) << file << " " << paths[p].label() << " ray " << i;
+                ASSERT_EQ(landings[i].surface, r.surface) << file << " " << paths[p].label();
+                ASSERT_EQ(landings[i].throughput, r.throughput) << file << " " << paths[p].label();
+                if (!r.ok()) continue;
+                ++ok;
+                ASSERT_EQ(landings[i].sensorMm.x, r.ray.originMm.x) << file << " " << paths[p].label();
+                ASSERT_EQ(landings[i].sensorMm.y, r.ray.originMm.y) << file << " " << paths[p].label();
+            }
+        }
+        EXPECT_GT(ok, 20) << file;  // the comparison saw surviving rays, not only failures
+    }
+}
+
+TEST(BundleTracer, StepByStepEqualsTheWholePathAndMarginsAgreeWithTheTests) {
+    const LensSystem lens = test::loadLens("lenses/zoom-24-70mm.lens");
+    const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(11.0, 8.0));
+    const SpectralIndices indices = lens.indicesAt(550.0);
+    const std::vector<glm::dvec2> points = lattice(grid, 48);
+    for (const GhostPath& ghost : {GhostPath{{28, 3}}, GhostPath{{13, 6}}, GhostPath{{22, 21}}, GhostPath{}}) {
+        const BundleTracer tracer(lens, indices, ghost.reflections);
+        std::vector<BundleLanding> whole(points.size());
+        tracer.trace(grid, points, whole);
+        for (size_t i = 0; i < points.size(); ++i) {
+            BundleRay ray{grid.ray(points[i].x, points[i].y), 1.0};
+            StepOutcome outcome;
+            int step = 0;
+            for (; step < tracer.stepCount(); ++step) {
+                tracer.advance(step, std::span<BundleRay>(&ray, 1), std::span<StepOutcome>(&outcome, 1), true);
+                // A margin says on which side of its constraint the ray is, as the test did.
+                if (!std::isnan(outcome.margin) && std::abs(outcome.margin) > 1e-12)
+                    ASSERT_EQ(outcome.margin <= 0.0, outcome.alive) << ghost.label() << " ray " << i << " step " << step;
+                if (!outcome.alive) break;
+            }
+            if (outcome.alive) {
+                ASSERT_TRUE(whole[i].ok()) << ghost.label();
+                EXPECT_EQ(ray.ray.originMm.x, whole[i].sensorMm.x);
+                EXPECT_EQ(ray.ray.originMm.y, whole[i].sensorMm.y);
+                EXPECT_EQ(ray.throughput, whole[i].throughput);
+            } else {
+                EXPECT_EQ(outcome.failure, whole[i].status) << ghost.label() << " ray " << i;
+                EXPECT_EQ(tracer.stepSurface(step), whole[i].surface) << ghost.label() << " ray " << i;
+            }
+        }
+    }
+}
+
+// The tables interpolate smooth functions of the incidence cosine with cubic Hermite polynomials
+// on 1/1024 intervals; their slopes come from central differences. Away from the critical angle
+// (handled exactly) that leaves errors around 1e-9 relative, and at most ~1e-5 relative where a
+// factor is tiny or steep (a reflectance near 1e-3 at normal incidence, the last interval before
+// the exact zone). 1e-4 bounds them with margin; a throughput is a product of ~50 factors, so its
+// error stays below 1e-3 relative, far below anything the preview or the analysis resolve.
+TEST(BundleTracer, InterfaceTablesAgreeWithInterfaceResponse) {
+    for (const char* file : test::kShippedLenses) {
+        const LensSystem lens = test::loadLens(file);
+        for (double wavelengthNm : {420.0, 550.0, 680.0}) {
+            const SpectralIndices indices = lens.indicesAt(wavelengthNm);
+            const InterfaceTables tables(lens, indices);
+            std::mt19937_64 random(7);
+            std::uniform_real_distribution<double> uniform(0.0, 1.0);
+            for (int k = 0; k < lens.surfaceCount(); ++k) {
+                if (lens.surface(k).isStop) continue;
+                for (int direction : {-1, 1})
+                    for (int n = 0; n < 400; ++n) {
+                        const double c = n < 21 ? n / 20.0 : uniform(random);
+                        const FresnelTerms exact = interfaceResponse(lens, indices, k, direction, c);
+                        EXPECT_NEAR(tables.reflectance(k, direction, c), exact.reflectance(),
+                                    1e-4 * exact.reflectance() + 1e-15)
+                            << file << " surface " << k << " cos " << c;
+                        EXPECT_NEAR(tables.transmittance(k, direction, c), exact.transmittance(),
+                                    1e-4 * exact.transmittance() + 1e-15)
+                            << file << " surface " << k << " cos " << c;
+                    }
+            }
+        }
+    }
+}
+
+TEST(BundleTracer, TablesChangeOnlyTheThroughput) {
+    const LensSystem lens = test::loadLens("lenses/zoom-24-70mm.lens");
+    const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(11.0, 8.0));
+    const SpectralIndices indices = lens.indicesAt(550.0);
+    const InterfaceTables tables(lens, indices);
+    const std::vector<glm::dvec2> points = lattice(grid, 64);
+    int ok = 0;
+    for (const GhostPath& ghost : {GhostPath{{28, 3}}, GhostPath{{26, 24}}, GhostPath{}}) {
+        const BundleTracer exact(lens, indices, ghost.reflections), tabled(lens, indices, ghost.reflections, true, &tables);
+        std::vector<BundleLanding> a(points.size()), b(points.size());
+        exact.trace(grid, points, a);
+        tabled.trace(grid, points, b);
+        for (size_t i = 0; i < points.size(); ++i) {
+            ASSERT_EQ(a[i].status, b[i].status);
+            if (!a[i].ok()) continue;
+            ++ok;
+            EXPECT_EQ(a[i].sensorMm, b[i].sensorMm);
+            EXPECT_NEAR(b[i].throughput / a[i].throughput, 1.0, 1e-3) << ghost.label();  // see above
+        }
+    }
+    EXPECT_GT(ok, 100);
+}
+
+}  // namespace
+}  // namespace flare
