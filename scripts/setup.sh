@@ -1,14 +1,22 @@
 #!/usr/bin/env bash
 # Installs every Debian package the build needs (idempotent; run as root) and configures a
 # Release build in build/. Usage: scripts/setup.sh [extra cmake arguments]
+#        scripts/setup.sh --fuzz   also installs clang and libFuzzer, and configures nothing
+#                                  (scripts/fuzz.sh configures build-fuzz/ itself)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+
+fuzz=0
+if [ "${1:-}" = "--fuzz" ]; then fuzz=1; shift; fi
 
 packages=(
   build-essential cmake ninja-build pkg-config python3
   libglm-dev libopenexr-dev libopenvdb-dev libtbb-dev libboost-iostreams-dev libblosc-dev
   nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev libpng-dev
 )
+# Only for a fuzz build: clang with its sanitizer and libFuzzer runtimes (16: the engine captures
+# structured bindings in lambdas, which clang supports from 16 on; Debian 12's default is 14).
+if [ "$fuzz" = 1 ]; then packages+=(clang-16 libclang-rt-16-dev); fi
 
 missing=()
 for p in "${packages[@]}"; do
@@ -25,5 +33,6 @@ if [ ${#missing[@]} -gt 0 ]; then
   apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
+if [ "$fuzz" = 1 ]; then exit 0; fi
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
 echo "setup: configured build/ (Release)"

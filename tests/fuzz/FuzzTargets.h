@@ -1,0 +1,34 @@
+// Bodies of the libFuzzer targets (tests/fuzz/fuzz_*.cpp), kept apart from the entry points so
+// that the default test suite can replay every input kept under tests/data/fuzz/ through exactly
+// the code the fuzzer ran (tests/unit/test_fuzz_regressions.cpp).
+//
+// Each body feeds one input to an engine reader and swallows the error the reader documents for
+// bad input (InputError; std::runtime_error for Film::load). Anything else escapes: an exception
+// of another type is a bug in the reader's input validation, and libFuzzer reports it as a crash,
+// as it does for the memory errors and undefined behaviour that ASan and UBSan catch.
+#pragma once
+
+#include <string>
+#include <string_view>
+
+namespace flare::fuzz {
+
+// parseLensText and parsePbrtLensText on the same text; a lens that parses is built and a few
+// rays are traced through it (sequentially and with the photon tracer).
+void lensInput(std::string_view data);
+// parseSceneText; a scene that names a shipped lens is then built (zoom, focus, f-number,
+// sensor size checks).
+void sceneInput(std::string_view data);
+// readExr on the bytes written to a temporary file.
+void exrInput(std::string_view data);
+// Renderer::loadCheckpoint on the bytes (a small fixed render of the double Gauss), and
+// Film::load of a film of that render's settings when the bytes are a bare film.
+void checkpointInput(std::string_view data);
+
+// Writes seed inputs that cannot be copied from the source tree: small EXRs (float and half,
+// scanline and tiled, several compressions, layers) and a checkpoint and a bare film of the
+// render checkpointInput uses. Returns the number of files written under dir/exr and
+// dir/checkpoint.
+int writeGeneratedSeeds(const std::string& dir);
+
+}  // namespace flare::fuzz

@@ -1,0 +1,90 @@
+// Numerical-stability stress runs over random valid lenses (RandomLens.h): sequential tracing,
+// non-sequential photon tracing and the final renderer, fed with the rays that break naive code
+// (exactly on the axis, grazing, at element edges, at the critical angle). Each run returns counts
+// and a list of failures, every failure with what is needed to reproduce it (the lens text, the
+// ray in hexadecimal floating point, the wavelength and the random stream).
+//
+// The same runners serve the short version in the default suite (tests/unit/test_stress.cpp,
+// seconds) and the long one labelled `stress` (tests/stress/stress_main.cpp, minutes).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace flare::stress {
+
+struct StressConfig {
+    std::uint64_t seed = 1;
+    int lenses = 40;          // lenses drawn (valid or not)
+    int raysPerLens = 64;     // sequential rays per lens (every kind in turn)
+    int photonsPerLens = 256; // photon-tracer photons per lens
+    int renderEvery = 8;      // a tiny render for every n-th valid lens (0: none)
+    int renderPasses = 2;
+    int maxLights = 3;        // lights per rendered scene: 1 … maxLights
+    std::string reproducerDir;  // where failures are written as replayable files ("" = nowhere)
+};
+
+// Named tolerances (see docs/robustness.md for their derivation).
+// Round trip forward → reversed: error ≤ kReversalSafety · m · ε · (S + κ), where m is the number
+// of surface events, ε the double epsilon, S the largest coordinate on the path and κ the
+// amplification of a perturbation of the reversed ray, measured by finite differences.
+inline constexpr double kReversalSafety = 64.0;
+// Beyond the critical angle by more than this (rad), a ray must be totally reflected; below it by
+// more than this, it must refract.
+inline constexpr double kCriticalAngleMarginRad = 1e-9;
+// Photons the tracer may lose (fate Lost) per photon traced: none were seen; one in 10⁵ is allowed
+// so that a single rounding accident on a random lens does not fail the suite, and each is
+// reported with a reproducer.
+inline constexpr double kMaxLostFraction = 1e-5;
+
+struct StressReport {
+    long lensesTried = 0, lensesRejected = 0, lensesBuilt = 0;
+    std::map<std::string, long> rejections;  // first words of the builder's message → count
+    // Sequential tracing.
+    long rays = 0, raysOk = 0;
+    std::map<std::string, long> statuses;
+    long reversalsCompared = 0, reversalsNotReturned = 0, reversalsIllConditioned = 0, reversalsNotSequential = 0;
+    double worstReversalRatio = 0.0;  // max error / (m ε (S + κ)), to compare with kReversalSafety
+    long criticalRays = 0, criticalTir = 0;
+    // Photon tracing.
+    long photons = 0, arrivals = 0;
+    std::map<std::string, long> fates;
+    std::map<std::string, long> findings;  // Lost and EventLimit photons by kind of ray and lens
+    // Renders.
+    long renders = 0, renderPhotons = 0;
+    std::map<std::string, long> excused;  // failures explained by a known engine bug (knownbug::)
+    std::vector<std::string> failures;  // each names the check and a reproducer
+
+    std::string summary() const;
+};
+
+// Engine bugs the stress runs found (docs/robustness.md, "Bugs found"). Each predicate runs the
+// bug's minimal reproducer and is true while the engine still has the bug; while it does, the
+// runs count the failures it explains under StressReport::excused instead of failing, and as soon
+// as the engine is fixed the same failures count again.
+namespace knownbug {
+// B1: thinFilmResponse (Coating.cpp) returns NaN reflectance/transmittance for p polarisation at
+// (or within ~1e-8 of) grazing incidence: the p admittance n0/cos θ0 divides by a zero cosine.
+bool thinFilmNaNAtGrazingIncidence();
+// B2: PhotonTracer loses photons (fate Lost) in a zero-thickness cell: two consecutive vertices
+// at the same z (a surface touching the next at the vertex, or the stop on a surface's vertex).
+bool photonLostAtCoincidentVertices();
+// B3: PhotonTracer loses photons that refract at the very rim of a surface whose rim meets the
+// cell wall (the photon ends a rounding error outside the wall cylinder, where nothing is found).
+bool photonLostAtRimSeam();
+// B5: PhotonTracer loses photons that pass a bladed iris outside the barrel of the cell they enter:
+// the barrel next to the stop is sized from the stop's nominal (area-equivalent) radius, but the
+// blades' opening reaches out to the polygon's circumradius.
+bool photonLostPastBladedIris();
+}  // namespace knownbug
+
+StressReport runSequentialStress(const StressConfig& config);
+StressReport runPhotonStress(const StressConfig& config);
+StressReport runRenderStress(const StressConfig& config);
+
+// Re-runs one failure written to reproducerDir; returns what it found ("" if all is well now).
+std::string replay(const std::string& path);
+
+}  // namespace flare::stress
