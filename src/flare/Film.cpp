@@ -67,6 +67,9 @@ struct Film::Tiles {
             tile = std::make_unique<double[]>(kTilePx * kTilePx * 3);
             in.read(reinterpret_cast<char*>(tile.get()), sizeof(double) * kTilePx * kTilePx * 3);
             if (!in) throw std::runtime_error("checkpoint: truncated film data");
+            // A NaN or infinity (a corrupt file) would reach the pixels, which writeExr refuses.
+            if (!std::all_of(tile.get(), tile.get() + kTilePx * kTilePx * 3, [](double v) { return std::isfinite(v); }))
+                throw std::runtime_error("checkpoint: non-finite film data");
         }
     }
 };

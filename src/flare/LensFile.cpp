@@ -95,6 +95,12 @@ public:
         return value;
     }
 
+    double fraction(int line, std::string_view token, const std::string& what) const {
+        const double value = finiteNumber(line, token, what);
+        if (value < 0.0 || value > 1.0) error(line, what + " must lie in [0, 1], got " + std::string(token));
+        return value;
+    }
+
     double positive(int line, std::string_view token, const std::string& what) const {
         const double value = finiteNumber(line, token, what);
         if (!(value > 0.0)) error(line, what + " must be positive, got " + std::string(token));
@@ -172,6 +178,16 @@ void validate(const Parser& parser, LensPrescription& p, int lastLine) {
             parser.error(row.line, "unknown variable gap '" + row.thickness.gapName + "'");
         if (row.coatingName && !p.findCoating(*row.coatingName))
             parser.error(row.line, "unknown coating '" + *row.coatingName + "'");
+        if (row.dust || row.grease) {
+            // Dirt settles on a surface with air on one side (not a cemented one), and only acts
+            // where the surface separates two different media.
+            const Medium& before = i == 0 ? Medium::air() : p.rows[i - 1].mediumAfter;
+            const char* what = row.dust ? "dust" : "grease";
+            if (!before.isAir() && !row.mediumAfter.isAir())
+                parser.error(row.line, std::string(what) + " on a cemented surface (glass on both sides): nothing can settle there");
+            if (before.describe() == row.mediumAfter.describe())
+                parser.error(row.line, std::string(what) + " on a surface between equal media (air on both sides)");
+        }
     }
     if (!p.rows.back().mediumAfter.isAir())
         parser.error(p.rows.back().line, "the last surface must be followed by air (the sensor side)");
@@ -337,6 +353,31 @@ void parseHeader(const Parser& parser, LensPrescription& p, const Line& line) {
         p.defaultCoating = std::string(tokens[1]);
         if (!p.findCoating(p.defaultCoating))
             parser.error(n, "unknown coating '" + p.defaultCoating + "' (define it with a coating line first)");
+    } else if (key == "finish") {
+        // finish housing|edges|iris diffuse=A glossy=G
+        if (tokens.size() < 3) parser.error(n, "finish needs a part (housing, edges or iris) and diffuse=/glossy= values");
+        const std::string part = lower(tokens[1]);
+        std::optional<FinishSpec>* target = part == "housing" ? &p.housingFinish
+                                            : part == "edges" ? &p.edgeFinish
+                                            : part == "iris"  ? &p.irisFinish
+                                                              : nullptr;
+        if (!target) parser.error(n, "unknown finish part '" + std::string(tokens[1]) + "' (housing, edges or iris)");
+        if (*target) parser.error(n, "the " + part + " finish is given twice");
+        FinishSpec finish;
+        for (size_t i = 2; i < tokens.size(); ++i) {
+            const auto [k, v] = parser.keyValue(n, tokens[i]);
+            if (k == "diffuse") finish.diffuse = parser.fraction(n, v, part + " diffuse");
+            else if (k == "glossy") finish.glossy = parser.fraction(n, v, part + " glossy");
+            else parser.error(n, "unknown finish option '" + k + "' (diffuse, glossy)");
+        }
+        if (finish.diffuse + finish.glossy > 1.0)
+            parser.error(n, part + " diffuse + glossy must not exceed 1 (energy)");
+        *target = finish;
+    } else if (key == "gloss_exponent") {
+        requireSingle();
+        const double exponent = parser.finiteNumber(n, tokens[1], "gloss_exponent");
+        if (exponent < 0.0 || exponent > 1e5) parser.error(n, "gloss_exponent must lie in [0, 100000]");
+        p.glossExponent = exponent;
     } else {
         parser.error(n, "unknown header keyword '" + std::string(tokens[0]) + "'");
     }
@@ -374,6 +415,7 @@ PrescriptionRow parseRow(const Parser& parser, const Line& line) {
     row.materialText = std::string(tokens[2]);
     row.mediumAfter = parser.material(n, tokens[2]);
     row.semiApertureMm = parser.positive(n, tokens[3], "semi_aperture");
+    bool dustCoverageGiven = false, greaseCoverageGiven = false;
     for (size_t i = 4; i < tokens.size(); ++i) {
         const auto [key, value] = parser.keyValue(n, tokens[i]);
         if (key == "k") {
@@ -388,12 +430,37 @@ PrescriptionRow parseRow(const Parser& parser, const Line& line) {
             row.mechSemiDiameterMm = parser.positive(n, value, "mech");
             continue;
         }
+        // Dust and grease: `dust=` / `grease=` give the coverage, the other keys refine it.
+        if (key == "dust" || key.rfind("dust_", 0) == 0) {
+            RowDust& dust = row.dust ? *row.dust : row.dust.emplace();
+            if (key == "dust") dust.coverage = parser.fraction(n, value, "dust coverage"), dustCoverageGiven = true;
+            else if (key == "dust_albedo") dust.albedo = parser.fraction(n, value, "dust_albedo");
+            else if (key == "dust_diameter_um") {
+                dust.diameterUm = parser.positive(n, value, "dust_diameter_um");
+                if (dust.diameterUm > 1e4) parser.error(n, "dust_diameter_um must not exceed 10000");
+            } else if (key == "dust_sigma") {
+                dust.diameterSigma = parser.finiteNumber(n, value, "dust_sigma");
+                if (dust.diameterSigma < 0.0 || dust.diameterSigma > 3.0) parser.error(n, "dust_sigma must lie in [0, 3]");
+            } else parser.error(n, "unknown surface option '" + key + "' (dust, dust_albedo, dust_diameter_um, dust_sigma)");
+            continue;
+        }
+        if (key == "grease" || key.rfind("grease_", 0) == 0) {
+            RowGrease& grease = row.grease ? *row.grease : row.grease.emplace();
+            if (key == "grease") grease.coverage = parser.fraction(n, value, "grease coverage"), greaseCoverageGiven = true;
+            else if (key == "grease_roughness") {
+                grease.roughness = parser.fraction(n, value, "grease_roughness");
+                if (!(grease.roughness > 0.0)) parser.error(n, "grease_roughness must be positive");
+            } else parser.error(n, "unknown surface option '" + key + "' (grease, grease_roughness)");
+            continue;
+        }
         const auto* it = std::find(std::begin(kAsphereKeys), std::end(kAsphereKeys), key);
         if (it == std::end(kAsphereKeys)) parser.error(n, "unknown surface option '" + key + "'");
         row.asphere[it - std::begin(kAsphereKeys)] = parser.finiteNumber(n, value, key);
     }
-    if (row.isStop && (row.conic != 0.0 || row.mechSemiDiameterMm))
+    if (row.isStop && (row.conic != 0.0 || row.mechSemiDiameterMm || row.dust || row.grease))
         parser.error(n, "the stop row takes no surface options");
+    if (row.dust && !dustCoverageGiven) parser.error(n, "dust_ options need dust=COVERAGE on the same row");
+    if (row.grease && !greaseCoverageGiven) parser.error(n, "grease_ options need grease=COVERAGE on the same row");
     if (row.mechSemiDiameterMm && *row.mechSemiDiameterMm < row.semiApertureMm)
         parser.error(n, "mech must not be smaller than the semi-aperture");
     checkAperture(parser, row);

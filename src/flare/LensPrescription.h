@@ -26,6 +26,21 @@ struct ThicknessSpec {
     std::string gapName;  // Kind::Gap
 };
 
+// Scattering a lens file can state (docs/lens-format.md, "Scattering"); a scene's `scattering`
+// block overrides it. How one of the lens's inner parts reflects: a Lambertian albedo and a share
+// reflected into a Phong lobe about the mirror direction (the rest is absorbed).
+struct FinishSpec {
+    double diffuse = 0.03;  // default: dark matte black paint, ~3 %
+    double glossy = 0.0;
+};
+// Dust and grease a row's surface carries (the scene's dust and grease entries without a mask).
+struct RowDust {
+    double coverage = 0.0, albedo = 0.5, diameterUm = 20.0, diameterSigma = 0.5;
+};
+struct RowGrease {
+    double coverage = 0.0, roughness = 0.1;
+};
+
 struct PrescriptionRow {
     double radiusMm = 0.0;  // 0: plane
     bool isStop = false;
@@ -37,6 +52,8 @@ struct PrescriptionRow {
     std::array<double, kAsphereTerms> asphere{};
     std::optional<double> mechSemiDiameterMm;
     std::optional<std::string> coatingName;  // per-row override of the default coating
+    std::optional<RowDust> dust;             // `dust=` options (air on at least one side)
+    std::optional<RowGrease> grease;         // `grease=` options
     int line = 0;
 };
 
@@ -77,6 +94,9 @@ struct LensPrescription {
     std::vector<VariableGap> gaps;
     std::vector<Coating> coatings;    // named coatings defined in the file
     std::string defaultCoating = "none";
+    // `finish` and `gloss_exponent` lines; unset: the scene's, else the built-in defaults.
+    std::optional<FinishSpec> housingFinish, edgeFinish, irisFinish;
+    std::optional<double> glossExponent;
     std::vector<PrescriptionRow> rows;
 
     int stopRow() const;  // index into rows, −1 if none

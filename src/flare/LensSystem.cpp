@@ -74,27 +74,24 @@ ZoomWeights resolveZoom(const LensPrescription& p, const std::string& zoom) {
     return w;
 }
 
-// z of the surface at radius r, continuing flat beyond its clear aperture (the element's bevel).
-double profileZMm(const Surface& s, double r) {
-    const double rc = std::min(r, s.semiApertureMm);
-    double sag = 0.0;
-    if (!s.sagMm(rc * rc, &sag)) sag = 0.0;
-    return s.vertexZMm + sag;
-}
-
-// Consecutive surfaces must not cross anywhere out to the larger clear aperture: that is an
-// element (or an air space) with a negative edge thickness.
+// Consecutive surfaces must not cross anywhere inside the barrel: that is an element (or an air
+// space) with a negative edge thickness. The profile checked is the one the photon tracer closes
+// its cells with: each surface out to its clear radius, then flat (the element's bevel under its
+// retaining ring) out to its edge; the stop is a plane, the blades, reaching the barrel. So next to
+// the stop, too, the check runs out to the larger clear radius: a surface whose rim lies beyond
+// the stop plane crosses the blades (checking only out to the smaller radius accepted lenses in
+// which light slipped from one cell into another through the crossing).
 void checkEdgeThickness(const LensPrescription& p, const std::vector<Surface>& surfaces) {
     constexpr int kSamples = 64;
     for (size_t i = 0; i + 1 < surfaces.size(); ++i) {
         const Surface& a = surfaces[i];
         const Surface& b = surfaces[i + 1];
-        const double rMax = (a.isStop || b.isStop)
-                                ? std::min(a.semiApertureMm, b.semiApertureMm)
-                                : std::max(a.semiApertureMm, b.semiApertureMm);
+        // Beyond both clear radii both profiles are flat: the gap no longer changes.
+        const double rMax = std::max(a.semiApertureMm, b.semiApertureMm);
         for (int k = 0; k <= kSamples; ++k) {
             const double r = rMax * k / kSamples;
-            const double gap = profileZMm(b, r) - profileZMm(a, r);
+            const double gap = (b.vertexZMm + b.profileSagMm(r, b.semiApertureMm)) -
+                               (a.vertexZMm + a.profileSagMm(r, a.semiApertureMm));
             if (gap < -1e-9) {
                 const bool glass = !p.rows[i].mediumAfter.isAir();
                 throw InputError(p.sourceFile, b.fileLine,
@@ -170,6 +167,16 @@ LensSystem LensSystem::build(const LensPrescription& p, const LensState& state) 
         i = j + 1;
     }
 
+    // The iris, wide open. A bladed opening reaches out to its circumradius, beyond the stop's
+    // nominal (area-equivalent) radius: the stop's mechanical radius, from which the barrel on
+    // both sides of it is sized, must take that in, or light through the opening's corners would
+    // pass outside the barrel of the cell beside the stop.
+    const PrescriptionRow& stopRow = p.rows[lens.stopIndex_];
+    lens.iris_ = Iris(p.iris.blades, p.iris.rotationDeg * std::numbers::pi / 180.0,
+                      p.iris.curvature, stopRow.semiApertureMm);
+    Surface& stop = lens.surfaces_[lens.stopIndex_];
+    stop.mechSemiDiameterMm = std::max(stop.mechSemiDiameterMm, lens.iris_.circumradiusMm());
+
     // Coatings sit on air–glass interfaces only.
     for (size_t i = 0; i < p.rows.size(); ++i) {
         const bool airBefore = lens.media_[i].isAir();
@@ -200,10 +207,6 @@ LensSystem LensSystem::build(const LensPrescription& p, const LensState& state) 
             differ |= lens.media_[i].indexAt(wavelength) != lens.media_[i + 1].indexAt(wavelength);
         lens.reflecting_.push_back(!lens.surfaces_[i].isStop && differ);
     }
-
-    const PrescriptionRow& stopRow = p.rows[lens.stopIndex_];
-    lens.iris_ = Iris(p.iris.blades, p.iris.rotationDeg * std::numbers::pi / 180.0,
-                      p.iris.curvature, stopRow.semiApertureMm);
 
     checkEdgeThickness(p, lens.surfaces_);
 

@@ -10,6 +10,7 @@
 #include <glm/geometric.hpp>
 
 #include "flare/Fresnel.h"
+#include "flare/MajorantGrid.h"
 #include "flare/Phase.h"
 #include "flare/SequentialTracer.h"
 #include "flare/VolumeGrid.h"
@@ -57,24 +58,30 @@ const char* toString(ScatterSource source) {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-// Smallest distance to the next boundary. A photon that has just left a surface starts on it up
-// to rounding (~1e-14 mm, more at grazing incidence): the surface it stands on must not be met
-// again within this distance.
-constexpr double kMinStepMm = 1e-9;
+// A photon that has just left a surface starts on it up to rounding (~1e-14 mm, more at grazing
+// incidence): the surface it stands on is not met again within kLeaveSurfaceMm.
 constexpr double kLeaveSurfaceMm = 1e-6;
+// Every other boundary may lie right where the photon stands: the next surface where two vertices
+// coincide (a zero-thickness cell), or a wall or annulus at the seam where a surface's rim meets
+// it. A boundary within this distance of the photon (ahead of it or, through rounding, behind it)
+// is met at once (at t = 0) if the photon moves through it out of its cell, and ignored otherwise.
+constexpr double kOnBoundaryMm = 1e-9;
 // Where two boundaries of a cell meet (a surface's rim and its annulus, an annulus and the wall),
 // both accept points within this relative tolerance of the seam, so that rounding cannot let a
 // photon slip between them and out of the cell.
 constexpr double kSeamTolerance = 1e-9;
 
 // Exit distance of a ray inside the cylinder x² + y² = R² (kInf if it runs parallel to the axis).
+// A ray that starts outside it (by rounding: at the seam of a surface's rim and the wall) and does
+// not come in is in the wall already: it exits at t = 0.
 double cylinderExit(const Ray& ray, double radiusMm) {
     const double a = ray.direction.x * ray.direction.x + ray.direction.y * ray.direction.y;
     if (a < 1e-300) return kInf;
     const double b = ray.originMm.x * ray.direction.x + ray.originMm.y * ray.direction.y;
     const double c = ray.originMm.x * ray.originMm.x + ray.originMm.y * ray.originMm.y - radiusMm * radiusMm;
     const double disc = b * b - a * c;
-    if (disc < 0.0) return kInf;  // outside and missing: only through rounding at the wall
+    if (c > 0.0 && (b >= 0.0 || disc < 0.0)) return 0.0;
+    if (disc < 0.0) return kInf;  // not reached: inside, disc ≥ b² ≥ 0
     // Larger root of a t² + 2 b t + c, written without cancellation.
     const double s = std::sqrt(disc);
     return b <= 0.0 ? (s - b) / a : -c / (b + s);
@@ -97,6 +104,7 @@ PhotonTracer::PhotonTracer(const LensSystem& lens, const InteriorMaterials& mate
         if (cell < 1 || cell >= n || lens.mediumBefore(cell).isAir() || mediumOfCell_[cell] >= 0)
             throw std::invalid_argument("PhotonTracer: a bulk medium must fill one glass element");
         mediumOfCell_[cell] = static_cast<int>(m);
+        majorants_.push_back(media_[m].grid ? MajorantGrid(*media_[m].grid) : MajorantGrid());
     }
     cells_.resize(n + 1);
     rims_.resize(n);
@@ -113,13 +121,12 @@ PhotonTracer::PhotonTracer(const LensSystem& lens, const InteriorMaterials& mate
     for (int k = 0; k < n; ++k) {
         const Surface& s = lens.surface(k);
         Rim& rim = rims_[k];
-        // The iris blades reach the barrel on both sides of the stop.
+        // The iris blades reach the barrel on both sides of the stop. An optical surface ends at its
+        // clear radius: beyond it the element is ground flat (the bevel under its retaining ring)
+        // out to its edge, the annulus. LensSystem::build checks that these profiles never cross.
         rim.extentMm = s.isStop ? std::max(k > 0 ? cells_[k].wallRadiusMm : 0.0, cells_[k + 1].wallRadiusMm)
-                                : s.mechSemiDiameterMm;
-        double sag = 0.0;
-        double r = rim.extentMm;
-        while (!s.sagMm(r * r, &sag) && r > 0.0) r *= 0.999;  // a conic ends before its rim
-        rim.zMm = s.vertexZMm + sag;
+                                : s.semiApertureMm;
+        rim.zMm = s.vertexZMm + s.profileSagMm(rim.extentMm, rim.extentMm);  // (a conic may end before)
     }
 }
 
@@ -198,13 +205,18 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
         auto trySurface = [&](int k, Kind which) {
             // A ray near the wall can cross the surface's continuation beyond its rim (where the
             // surface does not exist) before crossing the surface itself: look past such hits.
-            double tMin = k == onSurface ? kLeaveSurfaceMm : kMinStepMm;
+            const Surface& surface = lens.surface(k);
+            double tMin = k == onSurface ? kLeaveSurfaceMm : -kOnBoundaryMm;
             for (int crossing = 0; crossing < 3; ++crossing) {
-                const SurfaceHit hit = intersect(lens.surface(k), ray, tMin);
+                const SurfaceHit hit = intersect(surface, ray, tMin);
                 if (hit.status != HitStatus::Hit || hit.tMm >= best) return;
                 const glm::dvec3 p = ray.at(hit.tMm);
-                if (p.x * p.x + p.y * p.y <= rims_[k].extentMm * rims_[k].extentMm * (1.0 + kSeamTolerance)) {
-                    best = hit.tMm;
+                // A hit where the photon stands (kOnBoundaryMm) counts only if it leaves the cell:
+                // forwards through the surface ahead, backwards through the one behind.
+                const bool leaves = hit.tMm >= kOnBoundaryMm ||
+                                    (glm::dot(surface.normalAt(p), ray.direction) > 0.0) == (which == Kind::Ahead);
+                if (leaves && p.x * p.x + p.y * p.y <= rims_[k].extentMm * rims_[k].extentMm * (1.0 + kSeamTolerance)) {
+                    best = std::max(hit.tMm, 0.0);
                     kind = which;
                     return;
                 }
@@ -215,12 +227,12 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
         if (cell < n) trySurface(cell, Kind::Ahead);
         if (cell == n && ray.direction.z > 0.0) {
             const double t = (lens.sensorZMm() - ray.originMm.z) / ray.direction.z;
-            if (t > kMinStepMm && t < best) best = t, kind = Kind::SensorPlane;
+            if (t >= -kOnBoundaryMm && t < best) best = std::max(t, 0.0), kind = Kind::SensorPlane;
         }
         if (cell > 0) {
             const double wall = cells_[cell].wallRadiusMm;
             const double tCylinder = cylinderExit(ray, wall);
-            if (tCylinder > kMinStepMm && tCylinder < best) {
+            if (tCylinder < best) {
                 best = tCylinder, kind = Kind::Wall;
                 const glm::dvec3 p = ray.at(tCylinder);
                 wallNormal = glm::normalize(glm::dvec3(-p.x, -p.y, 0.0));
@@ -229,13 +241,13 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
             auto tryAnnulus = [&](int k, double facing) {
                 if (ray.direction.z * facing >= 0.0) return;  // moving away from it
                 const double t = (rims_[k].zMm - ray.originMm.z) / ray.direction.z;
-                if (t <= kMinStepMm || t >= best) return;
+                if (t < -kOnBoundaryMm || t >= best) return;
                 const glm::dvec3 p = ray.at(t);
                 const double r2 = p.x * p.x + p.y * p.y;
                 if (r2 < rims_[k].extentMm * rims_[k].extentMm * (1.0 - kSeamTolerance) ||
                     r2 > wall * wall * (1.0 + kSeamTolerance))
                     return;
-                best = t, kind = Kind::Wall;
+                best = std::max(t, 0.0), kind = Kind::Wall;
                 wallNormal = glm::dvec3(0.0, 0.0, facing);
             };
             tryAnnulus(cell - 1, 1.0);            // behind the photon, facing +z
@@ -247,26 +259,21 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
             return;
         }
         if (const int m = mediumOfCell_[cell]; m >= 0) {
-            // Delta tracking to the boundary against the majorant σ̄ = (σs + σa) · max density.
+            // Delta tracking to the boundary: through the grid's coarse majorants (MajorantGrid),
+            // or exactly in a homogeneous medium, where σt itself is the rate.
             const BulkMedium& medium = media_[m];
             const double sigmaS = scatteringPerMm(medium, indices.wavelengthNm);
             const double sigmaT = sigmaS + medium.absorptionPerMm;
-            const double majorant = sigmaT * (medium.grid ? medium.grid->maxValue() : 1.0);
-            const double zFront = lens.surface(cell - 1).vertexZMm;
-            bool collided = false;
-            for (double t = 0.0; majorant > 0.0;) {
-                t -= std::log(1.0 - rng.uniform()) / majorant;
-                if (t >= best) break;
-                const glm::dvec3 p = ray.at(t);
-                const double density =
-                    medium.grid ? scratch.samplers[m]->densityAt({p.x, p.y, p.z - zFront}) : 1.0;
-                if (rng.uniform() * majorant >= sigmaT * density) {
-                    ++h.nullCollisions;
-                    continue;
-                }
+            const glm::dvec3 frontVertex(0.0, 0.0, lens.surface(cell - 1).vertexZMm);
+            const double t = medium.grid ? sampleFreeFlight(majorants_[m], *scratch.samplers[m], sigmaT,
+                                                            ray.originMm - frontVertex, ray.direction, best, rng,
+                                                            h.nullCollisions)
+                             : sigmaT > 0.0 ? -std::log(1.0 - rng.uniform()) / sigmaT
+                                            : kInf;
+            if (t < best) {
                 ++h.realCollisions;
                 ++h.events;
-                ray.originMm = p;
+                ray.originMm = ray.at(t);
                 onSurface = -1;
                 if (rng.uniform() * sigmaT >= sigmaS) {
                     h.fate = PhotonFate::AbsorbedBulk;
@@ -275,10 +282,8 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
                 const double u1 = rng.uniform(), u2 = rng.uniform();
                 ray.direction = sampleHenyeyGreenstein(ray.direction, medium.g, u1, u2);
                 markScattered(ScatterSource::Bulk);
-                collided = true;
-                break;
+                continue;
             }
-            if (collided) continue;
         }
         ++h.events;
         const glm::dvec3 p = ray.at(best);
@@ -340,7 +345,7 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
             continue;
         }
         if (p.x * p.x + p.y * p.y > surface.semiApertureMm * surface.semiApertureMm) {
-            // Outside the clear aperture the surface is covered by its retaining ring.
+            // Outside the clear aperture (within the seam tolerance of the rim): the retaining ring.
             glm::dvec3 normal = surface.normalAt(p);
             if (glm::dot(normal, ray.direction) > 0.0) normal = -normal;
             if (!scatterOff(materials_.housingAlbedo, materials_.housingGlossy, normal)) {
@@ -360,7 +365,8 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
         glm::dvec3 roughTowards(0.0);  // set when a grease facet replaces the surface normal
         if (hasContamination_ && contamination_[k].any()) {
             const SurfaceContamination& c = contamination_[k];
-            if (c.dustCoverage > 0.0 && rng.uniform() < c.dustCoverage) {
+            // Zero local coverage draws no random number: a clean patch traces as a clean lens.
+            if (const double dust = c.dustCoverageAt(p.x, p.y); dust > 0.0 && rng.uniform() < dust) {
                 if (rng.uniform() >= c.dustAlbedo) {
                     h.fate = PhotonFate::AbsorbedDust;
                     return;
@@ -382,7 +388,7 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
                 // if it still heads into it, else it leaves back into this cell.
                 if ((glm::dot(normal, ray.direction) > 0.0) != forward) continue;
             }
-            if (c.greaseCoverage > 0.0 && rng.uniform() < c.greaseCoverage) {
+            if (const double grease = c.greaseCoverageAt(p.x, p.y); grease > 0.0 && rng.uniform() < grease) {
                 // A rough patch: the photon meets a GGX microfacet instead of the smooth surface.
                 // Facets seen from behind (steep facets at grazing light) are left out: the
                 // photon then meets the smooth surface, a small bias towards the smooth surface.
@@ -431,29 +437,28 @@ double PhotonTracer::clearTransmittance(const std::vector<glm::dvec3>& points, c
         const int k = surfaces[i];
         if (hasContamination_ && k >= 0 && k < n && !lens_->surface(k).isStop) {
             const SurfaceContamination& c = contamination_[k];
-            transmittance *= (1.0 - c.dustCoverage) * (1.0 - c.greaseCoverage);
+            const glm::dvec3& p = points[i];
+            transmittance *= (1.0 - c.dustCoverageAt(p.x, p.y)) * (1.0 - c.greaseCoverageAt(p.x, p.y));
         }
         if (media_.empty() || i == 0) continue;
         // The segment from the previous event lies in the cell between the two surfaces.
         const int cell = std::max(surfaces[i - 1], k);
         const int m = cell >= 0 && cell <= n ? mediumOfCell_[cell] : -1;
         if (m < 0) continue;
-        // Ratio tracking: tentative collisions at the majorant's rate, each multiplying by the
-        // probability that it was a null collision.
+        // Ratio tracking through the grid's coarse majorants; a homogeneous medium's transmittance
+        // is known exactly.
         const BulkMedium& medium = media_[m];
         const double sigmaT = scatteringPerMm(medium, wavelengthNm) + medium.absorptionPerMm;
-        const double majorant = sigmaT * (medium.grid ? medium.grid->maxValue() : 1.0);
-        if (majorant <= 0.0) continue;
         const glm::dvec3 from = points[i - 1], to = points[i];
         const double length = glm::length(to - from);
-        const glm::dvec3 direction = (to - from) / length;
-        const double zFront = lens_->surface(cell - 1).vertexZMm;
-        for (double t = -std::log(1.0 - rng.uniform()) / majorant; t < length;
-             t -= std::log(1.0 - rng.uniform()) / majorant) {
-            const glm::dvec3 p = from + t * direction;
-            const double density = medium.grid ? scratch.samplers[m]->densityAt({p.x, p.y, p.z - zFront}) : 1.0;
-            transmittance *= 1.0 - sigmaT * density / majorant;
+        if (!medium.grid) {
+            transmittance *= std::exp(-sigmaT * length);
+            continue;
         }
+        if (!(length > 0.0)) continue;
+        const glm::dvec3 frontVertex(0.0, 0.0, lens_->surface(cell - 1).vertexZMm);
+        transmittance *= ratioTrackingTransmittance(majorants_[m], *scratch.samplers[m], sigmaT, from - frontVertex,
+                                                    (to - from) / length, length, rng);
     }
     return transmittance;
 }

@@ -25,7 +25,9 @@
 
 #include <glm/vec2.hpp>
 
+#include "flare/CoverageMask.h"
 #include "flare/LensSystem.h"
+#include "flare/MajorantGrid.h"
 #include "flare/Random.h"
 #include "flare/Ray.h"
 #include "flare/VolumeGrid.h"
@@ -50,6 +52,8 @@ struct InteriorMaterials {
 // and reflection into a broad Henyey–Greenstein lobe, g = 0.6) and absorbs the rest. Grease: on a
 // share `greaseCoverage` of the surface the interface is rough, a GGX microfacet surface of
 // roughness greaseRoughness whose facets reflect and refract with the Fresnel/coating factors.
+// A mask (CoverageMask, placed in the surface's x, y) makes either coverage local: coverage ×
+// the mask's value where the light meets the surface.
 struct SurfaceContamination {
     double dustCoverage = 0.0;
     double dustAlbedo = 0.5;
@@ -57,7 +61,19 @@ struct SurfaceContamination {
     double dustDiameterSigma = 0.5;  // of ln(diameter)
     double greaseCoverage = 0.0;
     double greaseRoughness = 0.1;
-    bool any() const { return dustCoverage > 0.0 || greaseCoverage > 0.0; }
+    std::shared_ptr<const CoverageMask> dustMask, greaseMask;  // null: the same coverage everywhere
+
+    double dustCoverageAt(double xMm, double yMm) const {
+        return dustMask ? dustCoverage * dustMask->valueAt(xMm, yMm) : dustCoverage;
+    }
+    double greaseCoverageAt(double xMm, double yMm) const {
+        return greaseMask ? greaseCoverage * greaseMask->valueAt(xMm, yMm) : greaseCoverage;
+    }
+    // Whether any point of the surface is contaminated (an all-black mask contaminates none).
+    bool any() const {
+        return (dustCoverage > 0.0 && !(dustMask && dustMask->allZero())) ||
+               (greaseCoverage > 0.0 && !(greaseMask && greaseMask->allZero()));
+    }
 };
 
 // Bulk scattering inside one glass element: scattering and absorption coefficients (per mm) times
@@ -144,7 +160,8 @@ public:
     // Probability that light following a sequential path meets no dust, grease or bulk event: the
     // guided strategy's weight for owning only unscattered paths. `points` and `surfaces` are
     // TraceOptions' record of the path (surface index per point, −1 the start, surfaceCount the
-    // sensor). Bulk transmittance is estimated without bias by ratio tracking (uses rng).
+    // sensor). Bulk transmittance is exact in a homogeneous medium and estimated without bias by
+    // ratio tracking through a grid's majorants (uses rng).
     double clearTransmittance(const std::vector<glm::dvec3>& points, const std::vector<int>& surfaces,
                               double wavelengthNm, Rng& rng, Scratch& scratch) const;
 
@@ -158,7 +175,7 @@ private:
         bool glass = false;
     };
     struct Rim {
-        double extentMm = 0.0;  // the surface exists out to this radius (the stop: the blades' reach)
+        double extentMm = 0.0;  // the surface's clear radius (the stop: the blades' reach)
         double zMm = 0.0;       // z of the surface at that radius: where the cell's annulus lies
     };
 
@@ -170,6 +187,7 @@ private:
     std::vector<SurfaceContamination> contamination_;  // per surface (or empty)
     bool hasContamination_ = false;
     std::vector<BulkMedium> media_;
+    std::vector<MajorantGrid> majorants_;  // per medium (empty for a homogeneous one)
     std::vector<int> mediumOfCell_;  // index into media_ or −1, per cell
     std::vector<Cell> cells_;  // surfaceCount + 1
     std::vector<Rim> rims_;    // surfaceCount

@@ -12,8 +12,10 @@
 #include <glm/geometric.hpp>
 #include <tbb/parallel_for.h>
 
+#include "flare/CoverageMask.h"
 #include "flare/Error.h"
 #include "flare/GuideMask.h"
+#include "flare/LensFile.h"
 #include "flare/LightSampler.h"
 #include "flare/SequentialTracer.h"
 #include "flare/VolumeGrid.h"
@@ -81,11 +83,17 @@ struct Renderer::BatchResult {
 
 void applySceneScattering(const Scene& scene, const LensSystem& lens, RenderOptions& options) {
     const ScatteringSettings& s = scene.scattering;
+    // The lens file's scattering, which the scene overrides. (Read again here: a LensSystem keeps
+    // no prescription, and the file is small.)
+    const LensPrescription prescription = scene.lens.empty() ? LensPrescription{} : loadLens(scene.lens);
+    const FinishSpec housing = s.housing.value_or(prescription.housingFinish.value_or(FinishSpec{}));
+    const FinishSpec edges = s.edges.value_or(prescription.edgeFinish.value_or(FinishSpec{}));
+    const FinishSpec iris = s.iris.value_or(prescription.irisFinish.value_or(FinishSpec{}));
     InteriorMaterials& m = options.materials;
-    m.housingAlbedo = s.housing.diffuse, m.housingGlossy = s.housing.glossy;
-    m.edgeAlbedo = s.edges.diffuse, m.edgeGlossy = s.edges.glossy;
-    m.irisAlbedo = s.iris.diffuse, m.irisGlossy = s.iris.glossy;
-    m.glossExponent = s.glossExponent;
+    m.housingAlbedo = housing.diffuse, m.housingGlossy = housing.glossy;
+    m.edgeAlbedo = edges.diffuse, m.edgeGlossy = edges.glossy;
+    m.irisAlbedo = iris.diffuse, m.irisGlossy = iris.glossy;
+    m.glossExponent = s.glossExponent.value_or(prescription.glossExponent.value_or(InteriorMaterials{}.glossExponent));
     const int n = lens.surfaceCount();
     auto surfaceIndex = [&](int number, int line, const char* what) {
         if (number > n)
@@ -102,16 +110,49 @@ void applySceneScattering(const Scene& scene, const LensSystem& lens, RenderOpti
                                  " is a cemented interface (glass on both sides): nothing can settle there");
         return number - 1;
     };
+    // A mask's file errors name the scene and the key too: the user wrote the path there.
+    auto loadMask = [&](const MaskSpec& spec, int surface) -> std::shared_ptr<const CoverageMask> {
+        if (spec.file.empty()) return nullptr;
+        CoverageMask mask;
+        try {
+            mask = CoverageMask::load(spec.file);
+        } catch (const InputError& e) {
+            throw InputError(scene.sourceFile, spec.line,
+                             spec.keyPath + ": cannot use the mask image '" + spec.file + "': " + e.problem());
+        }
+        const double widthMm = spec.widthMm.value_or(2.0 * lens.surface(surface).semiApertureMm);
+        const double heightMm = spec.heightMm.value_or(widthMm * mask.heightPx() / mask.widthPx());
+        mask.place(widthMm, heightMm, spec.centreMm);
+        return std::make_shared<const CoverageMask>(std::move(mask));
+    };
     options.contamination.clear();
-    if (!s.dust.empty() || !s.grease.empty()) options.contamination.assign(n, SurfaceContamination{});
+    const bool lensDirt = static_cast<int>(prescription.rows.size()) == n &&
+                          std::any_of(prescription.rows.begin(), prescription.rows.end(),
+                                      [](const PrescriptionRow& row) { return row.dust || row.grease; });
+    if (!s.dust.empty() || !s.grease.empty() || lensDirt) options.contamination.assign(n, SurfaceContamination{});
+    // The lens file's dust and grease first (its parser checked the surfaces), then the scene's,
+    // whose entries replace them surface by surface.
+    if (lensDirt)
+        for (int k = 0; k < n; ++k) {
+            SurfaceContamination& c = options.contamination[k];
+            if (const auto& d = prescription.rows[k].dust) {
+                c.dustCoverage = d->coverage, c.dustAlbedo = d->albedo, c.dustDiameterUm = d->diameterUm;
+                c.dustDiameterSigma = d->diameterSigma;
+            }
+            if (const auto& g = prescription.rows[k].grease) c.greaseCoverage = g->coverage, c.greaseRoughness = g->roughness;
+        }
     for (const DustSpec& d : s.dust) {
-        SurfaceContamination& c = options.contamination[surfaceIndex(d.surface, d.line, "dust")];
+        const int k = surfaceIndex(d.surface, d.line, "dust");
+        SurfaceContamination& c = options.contamination[k];
         c.dustCoverage = d.coverage, c.dustAlbedo = d.albedo, c.dustDiameterUm = d.diameterUm;
         c.dustDiameterSigma = d.diameterSigma;
+        c.dustMask = loadMask(d.mask, k);
     }
     for (const GreaseSpec& g : s.grease) {
-        SurfaceContamination& c = options.contamination[surfaceIndex(g.surface, g.line, "grease")];
+        const int k = surfaceIndex(g.surface, g.line, "grease");
+        SurfaceContamination& c = options.contamination[k];
         c.greaseCoverage = g.coverage, c.greaseRoughness = g.roughness;
+        c.greaseMask = loadMask(g.mask, k);
     }
     options.media.clear();
     for (const BulkSpec& b : s.bulk) {
@@ -530,6 +571,16 @@ void Renderer::loadCheckpoint(const std::string& path) {
                 in.read(reinterpret_cast<char*>(&t.sumSquaredMeans), sizeof t.sumSquaredMeans);
             }
         if (!in) throw std::runtime_error("checkpoint: truncated");
+        // The doubles are taken as written: a corrupt or hostile file could hold a NaN or an
+        // infinity, which would turn every power reported from here on into NaN. Powers, sums of
+        // squares, photon counts and times are never negative either.
+        auto bad = [](double v) { return !std::isfinite(v) || v < 0.0; };
+        bool valid = !bad(statistics.seconds) && !bad(statistics.unguidedEmittedPowerW) &&
+                     !bad(statistics.unguidedEnteredPowerW) && statistics.photons >= 0 && statistics.passes >= 0;
+        for (const FateTally& f : statistics.fates) valid = valid && !bad(f.powerW) && f.photons >= 0;
+        for (const auto* list : {&tallies, &layerTallies, &sourceTallies})
+            for (const PathTally& t : *list) valid = valid && !bad(t.sumMeans) && !bad(t.sumSquaredMeans);
+        if (!valid) throw std::runtime_error("checkpoint: a statistic or tally is negative or not finite");
         film_.load(in);
         statistics_ = statistics;
         tallies_ = std::move(tallies);

@@ -52,10 +52,11 @@ struct RenderOptions {
     std::int64_t photonsPerPass() const { return static_cast<std::int64_t>(batchPhotons) * batchesPerPass; }
 };
 
-// Fills options.materials, .contamination and .media from the scene's "scattering" block, checking
-// it against the lens (a surface number that does not exist, dust on the stop, bulk scattering in
-// an air space: InputError naming the scene file and line) and loading the grids (errors name the
-// .vdb file).
+// Fills options.materials, .contamination and .media from the scene's lens file's scattering
+// (finishes, per-surface dust and grease) overridden by the scene's "scattering" block, checking
+// the scene against the lens (a surface number that does not exist, dust on the stop, bulk
+// scattering in an air space: InputError naming the scene file and line), loading the coverage
+// masks (errors name the scene file, line and key) and the grids (errors name the .vdb file).
 void applySceneScattering(const Scene& scene, const LensSystem& lens, RenderOptions& options);
 
 // Film layers of every render, in this order; per-ghost layers follow.

@@ -610,6 +610,50 @@ FinishSpec parseFinish(const Checker& c, const Node& node, const std::string& pa
     return f;
 }
 
+// A data file named in the scene, relative to the scene's folder (kept as given if that does not
+// exist, so that the error names what the user wrote).
+std::string resolveDataFile(const std::string& file, const std::string& baseDir) {
+    const std::filesystem::path resolved = std::filesystem::path(baseDir) / file;
+    return std::filesystem::exists(resolved) || baseDir.empty() ? resolved.string() : file;
+}
+
+// The optional "mask", "mask_size_mm" (a width, or [width, height]) and "mask_centre_mm" keys of
+// a dust or grease entry.
+MaskSpec parseMask(const Checker& c, const Node& item, const std::string& path, const std::string& baseDir) {
+    MaskSpec mask;
+    const Member* file = Checker::find(item, "mask");
+    const Member* size = Checker::find(item, "mask_size_mm");
+    const Member* centre = Checker::find(item, "mask_centre_mm");
+    if (!file) {
+        if (size || centre)
+            c.fail((size ? size : centre)->keyLine, child(path, size ? "mask_size_mm" : "mask_centre_mm"),
+                   "is only allowed with a 'mask' image");
+        return mask;
+    }
+    mask.keyPath = child(path, "mask");
+    mask.line = file->value.line;
+    const std::string& name = c.string(file->value, mask.keyPath);
+    if (name.empty()) c.fail(mask.line, mask.keyPath, "must name a PNG or EXR image file");
+    mask.file = resolveDataFile(name, baseDir);
+    if (size) {
+        const std::string sizePath = child(path, "mask_size_mm");
+        if (size->value.kind == Node::Kind::Array) {
+            const auto& wh = c.numbers(size->value, sizePath, 2, "a width, or [width, height], in mm");
+            mask.widthMm = c.numberIn(wh[0], index(sizePath, 0), 0.0, 1e4, "mm", true);
+            mask.heightMm = c.numberIn(wh[1], index(sizePath, 1), 0.0, 1e4, "mm", true);
+        } else {
+            mask.widthMm = c.numberIn(size->value, sizePath, 0.0, 1e4, "mm", true);
+        }
+    }
+    if (centre) {
+        const std::string centrePath = child(path, "mask_centre_mm");
+        const auto& xy = c.numbers(centre->value, centrePath, 2, "[x, y] in mm");
+        mask.centreMm = {c.numberIn(xy[0], index(centrePath, 0), -1e4, 1e4, "mm"),
+                         c.numberIn(xy[1], index(centrePath, 1), -1e4, 1e4, "mm")};
+    }
+    return mask;
+}
+
 void parseScattering(const Checker& c, const Node& node, const std::string& baseDir, ScatteringSettings& s) {
     c.object(node, "scattering", {"housing", "edges", "iris", "gloss_exponent", "dust", "grease", "bulk"});
     if (const Member* m = Checker::find(node, "housing")) s.housing = parseFinish(c, m->value, "scattering.housing");
@@ -631,7 +675,8 @@ void parseScattering(const Checker& c, const Node& node, const std::string& base
         for (std::size_t i = 0; i < list->size(); ++i) {
             const Node& item = (*list)[i];
             const std::string path = index("scattering.dust", i);
-            c.object(item, path, {"surface", "coverage", "albedo", "diameter_um", "diameter_sigma"});
+            c.object(item, path, {"surface", "coverage", "albedo", "diameter_um", "diameter_sigma", "mask", "mask_size_mm",
+                                  "mask_centre_mm"});
             DustSpec d;
             d.line = item.line;
             d.surface = surfaceNumber(item, path, "surface");
@@ -641,19 +686,21 @@ void parseScattering(const Checker& c, const Node& node, const std::string& base
                 d.diameterUm = c.numberIn(m->value, child(path, "diameter_um"), 0.0, 1e4, "um", true);
             if (const Member* m = Checker::find(item, "diameter_sigma"))
                 d.diameterSigma = c.numberIn(m->value, child(path, "diameter_sigma"), 0.0, 3.0, "");
+            d.mask = parseMask(c, item, path, baseDir);
             s.dust.push_back(d);
         }
     if (const auto* list = items("grease"))
         for (std::size_t i = 0; i < list->size(); ++i) {
             const Node& item = (*list)[i];
             const std::string path = index("scattering.grease", i);
-            c.object(item, path, {"surface", "coverage", "roughness"});
+            c.object(item, path, {"surface", "coverage", "roughness", "mask", "mask_size_mm", "mask_centre_mm"});
             GreaseSpec g;
             g.line = item.line;
             g.surface = surfaceNumber(item, path, "surface");
             g.coverage = c.numberIn(c.require(item, path, "coverage").value, child(path, "coverage"), 0.0, 1.0, "");
             if (const Member* m = Checker::find(item, "roughness"))
                 g.roughness = c.numberIn(m->value, child(path, "roughness"), 0.0, 1.0, "", true);
+            g.mask = parseMask(c, item, path, baseDir);
             s.grease.push_back(g);
         }
     if (const auto* list = items("bulk"))
@@ -671,9 +718,7 @@ void parseScattering(const Checker& c, const Node& node, const std::string& base
             if (const Member* m = Checker::find(item, "g")) b.g = c.numberIn(m->value, child(path, "g"), -0.99, 0.99, "");
             if (const Member* m = Checker::find(item, "rayleigh")) b.rayleigh = c.boolean(m->value, child(path, "rayleigh"));
             if (const Member* m = Checker::find(item, "grid")) {
-                const std::string& file = c.string(m->value, child(path, "grid"));
-                const std::filesystem::path resolved = std::filesystem::path(baseDir) / file;
-                b.grid = std::filesystem::exists(resolved) || baseDir.empty() ? resolved.string() : file;
+                b.grid = resolveDataFile(c.string(m->value, child(path, "grid")), baseDir);
             }
             if (const Member* m = Checker::find(item, "grid_name")) b.gridName = c.string(m->value, child(path, "grid_name"));
             s.bulk.push_back(b);

@@ -80,18 +80,26 @@ struct RenderSettings {
 
 // Scattering (docs/scene-format.md, "scattering"). Surfaces are numbered from 1 in file order,
 // counting the stop, as everywhere; an element is named by the number of its first surface.
-struct FinishSpec {
-    double diffuse = 0.03;  // Lambertian albedo (default: dark matte black paint, ~3 %)
-    double glossy = 0.0;    // share reflected into a Phong lobe about the mirror direction
+// A coverage mask on a dust or grease entry (CoverageMask): the image file and where it lies on
+// the surface. Loaded with the lens (applySceneScattering), whose clear diameter is the default width.
+struct MaskSpec {
+    std::string file;                  // resolved path; "" = no mask
+    std::optional<double> widthMm;     // default: the surface's clear diameter
+    std::optional<double> heightMm;    // default: from the width and the image's aspect ratio
+    glm::dvec2 centreMm{0.0};
+    std::string keyPath;               // e.g. "scattering.dust[0].mask", for errors
+    int line = 0;                      // of the "mask" value
 };
 struct DustSpec {
     int surface = 0;
     double coverage = 0.0, albedo = 0.5, diameterUm = 20.0, diameterSigma = 0.5;
+    MaskSpec mask;
     int line = 0;
 };
 struct GreaseSpec {
     int surface = 0;
     double coverage = 0.0, roughness = 0.1;
+    MaskSpec mask;
     int line = 0;
 };
 struct BulkSpec {
@@ -102,9 +110,12 @@ struct BulkSpec {
     std::string gridName;  // "" = the file's first float grid
     int line = 0;
 };
+// Unset finishes and gloss exponent fall back to the lens file's, then to FinishSpec{} and 30.
+// Dust and grease entries replace the lens file's for their surface (FinishSpec, RowDust and
+// RowGrease: LensPrescription.h).
 struct ScatteringSettings {
-    FinishSpec housing, edges, iris;
-    double glossExponent = 30.0;
+    std::optional<FinishSpec> housing, edges, iris;
+    std::optional<double> glossExponent;
     std::vector<DustSpec> dust;
     std::vector<GreaseSpec> grease;
     std::vector<BulkSpec> bulk;

@@ -1,5 +1,6 @@
 #include "flare/Surface.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <glm/geometric.hpp>
@@ -27,6 +28,17 @@ bool Surface::sagMm(double r2, double* sag) const {
     return true;
 }
 
+double Surface::profileSagMm(double rMm, double edgeMm) const {
+    double r2 = std::min(rMm, edgeMm);
+    r2 *= r2;
+    // A prolate ellipsoid or sphere (1 + k > 0) exists out to r² = 1 / ((1 + k) c²).
+    const double k1c2 = (1.0 + conic) * curvature() * curvature();
+    if (k1c2 > 0.0) r2 = std::min(r2, 1.0 / k1c2);
+    double sag = 0.0;
+    while (!sagMm(r2, &sag)) r2 *= 0.998;  // rounding at the conic's end
+    return sag;
+}
+
 double Surface::sagSlope(double r2) const {
     const double c = curvature();
     const double q = 1.0 - (1.0 + conic) * c * c * r2;
@@ -47,6 +59,15 @@ glm::dvec3 Surface::normalAt(const glm::dvec3& p) const {
     if (conic == 0.0 && !polynomial) return (glm::dvec3(0.0, 0.0, vertexZMm + radiusMm) - p) / radiusMm;
     const double s = sagSlope(p.x * p.x + p.y * p.y);
     return glm::normalize(glm::dvec3(-2.0 * s * p.x, -2.0 * s * p.y, 1.0));
+}
+
+SurfaceHit intersectConicFromAfar(const Surface& s, const glm::dvec3& o, const glm::dvec3& d, double tMin) {
+    // Out of line: both intersect() and the batch tracers call this same code, so their results
+    // still agree to the last bit.
+    const double tShift = -glm::dot(o, d) / glm::dot(d, d);
+    SurfaceHit hit = intersectConic(s, o + tShift * d, d, tMin - tShift, true);
+    if (hit.status == HitStatus::Hit) hit.tMm += tShift;
+    return hit;
 }
 
 SurfaceHit intersect(const Surface& s, const Ray& ray, double tMinMm) {

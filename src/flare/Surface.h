@@ -31,6 +31,11 @@ struct Surface {
     // Sag z(r) relative to the vertex as a function of r² (mm²). Returns false where the conic
     // square root is undefined (beyond the surface's extent).
     bool sagMm(double r2, double* sag) const;
+    // The sag of the surface as mounted: the surface out to radius edgeMm (its clear radius), flat
+    // beyond it (the element's bevel under its retaining ring lies at the rim's z), and flat beyond
+    // the end of a conic that closes before edgeMm. The photon tracer closes its cells this way,
+    // and the builder checks surfaces against each other along the same profile.
+    double profileSagMm(double rMm, double edgeMm) const;
     // dz/d(r²), used for normals and the Newton step.
     double sagSlope(double r2) const;
     // Unit normal at a point on the surface (lens space), pointing towards +z.
@@ -72,12 +77,25 @@ inline int solveQuadratic(double a, double b, double c, double* t0, double* t1) 
 // Intersection with the conic part (polynomial terms ignored), in vertex-local coordinates.
 // The conic r² − 2Rz + (1+k)z² = 0 is written with curvature c as c r² − 2z + c(1+k)z² = 0, which
 // stays finite for a plane (c = 0). The vertex branch satisfies 1 − c(1+k)z > 0.
-inline SurfaceHit intersectConic(const Surface& s, const glm::dvec3& o, const glm::dvec3& d, double tMin) {
+//
+// From an origin o far from the vertex the quadratic's coefficients grow as c |o|² while its roots
+// do not: the discriminant cancels, and the hit misses the surface by ~ε |o|² |c| / cos θ. So when
+// |c cc| (≈ (|c| |o|)², cc being the conic's value at o) exceeds kConicFarOrigin², the ray is solved
+// from its point nearest the vertex instead (intersectConicFromAfar): that costs one rounding of
+// that point, ε |o|, as if the ray had been given there. Nearer origins lose a few ε at most and
+// pay only for the test.
+inline constexpr double kConicFarOrigin = 4.0;  // in radii of curvature
+[[gnu::cold]] SurfaceHit intersectConicFromAfar(const Surface& s, const glm::dvec3& o, const glm::dvec3& d, double tMin);
+
+inline SurfaceHit intersectConic(const Surface& s, const glm::dvec3& o, const glm::dvec3& d, double tMin,
+                                 bool nearest = false) {
     const double c = s.curvature();
     const double k1 = 1.0 + s.conic;
     const double a = c * (d.x * d.x + d.y * d.y + k1 * d.z * d.z);
     const double b = c * (o.x * d.x + o.y * d.y + k1 * o.z * d.z) - d.z;
     const double cc = c * (o.x * o.x + o.y * o.y + k1 * o.z * o.z) - 2.0 * o.z;
+    if (!nearest && std::abs(c * cc) > kConicFarOrigin * kConicFarOrigin) [[unlikely]]
+        return intersectConicFromAfar(s, o, d, tMin);
     double t0 = 0.0, t1 = 0.0;
     if (solveQuadratic(a, b, cc, &t0, &t1) == 0) return {};
     for (double t : {t0, t1}) {

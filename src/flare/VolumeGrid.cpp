@@ -318,6 +318,28 @@ double VolumeGrid::maxValue() const { return impl_ ? impl_->maxValue : 0.0; }
 double VolumeGrid::meanValue() const { return impl_ ? impl_->meanValue : 0.0; }
 std::size_t VolumeGrid::activeVoxelCount() const { return impl_ ? impl_->activeVoxels : 0; }
 
+void VolumeGrid::forEachActiveBox(
+    const std::function<void(const glm::dvec3& minMm, const glm::dvec3& maxMm, double value)>& visit) const {
+    if (!impl_) return;
+    const openvdb::math::Transform& transform = impl_->grid->transform();
+    // Lookups round world → index in double precision: a point a few ulps outside a voxel's box
+    // can still land on it. A millionth of a voxel is far above that and far below any cell size.
+    const double margin = 1e-6 * impl_->voxelSizeMm;
+    for (auto it = impl_->grid->tree().cbeginValueOn(); it; ++it) {
+        const openvdb::CoordBBox box = it.getBoundingBox();
+        glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+        for (int corner = 0; corner < 8; ++corner) {
+            const openvdb::Vec3d ijk((corner & 1 ? box.max().x() + 0.5 : box.min().x() - 0.5),
+                                     (corner & 2 ? box.max().y() + 0.5 : box.min().y() - 0.5),
+                                     (corner & 4 ? box.max().z() + 0.5 : box.min().z() - 0.5));
+            const glm::dvec3 p = toGlm(transform.indexToWorld(ijk));
+            lo = glm::min(lo, p);
+            hi = glm::max(hi, p);
+        }
+        visit(lo - margin, hi + margin, static_cast<double>(*it));
+    }
+}
+
 void VolumeGrid::save(const std::string& path) const {
     if (!impl_) throw std::logic_error("VolumeGrid::save: the grid is empty");
     initializeOpenVdb();

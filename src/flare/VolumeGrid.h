@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <memory>
 #include <string>
 #include <utility>
@@ -59,6 +60,13 @@ public:
     double maxValue() const;               // the majorant: no densityAt() exceeds it
     double meanValue() const;              // over active voxels (tiles weighted by their voxels)
     std::size_t activeVoxelCount() const;  // active tiles count with all their voxels
+
+    // Calls visit(minMm, maxMm, value) once per active voxel and active tile: a world-space box
+    // holding every point whose lookup lands on it (the voxel's index box ± ½ mapped to world space;
+    // for a rotated grid the axis-aligned box around that), widened by a rounding margin. The
+    // largest value among the boxes a region meets therefore bounds densityAt() in that region:
+    // MajorantGrid builds its coarse maxima this way.
+    void forEachActiveBox(const std::function<void(const glm::dvec3& minMm, const glm::dvec3& maxMm, double value)>& visit) const;
 
     // Density lookups for one thread. Holds an OpenVDB ValueAccessor (a cache of the last nodes
     // visited), which is not thread-safe: each thread or photon batch makes its own with

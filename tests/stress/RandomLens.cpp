@@ -40,12 +40,11 @@ double profileMm(const Surface& s, double r) {
 }
 
 // Smallest vertex distance from a to b at which b's profile is nowhere in front of a's, sampled
-// at 512 radii (a superset of the builder's 64, so the builder agrees wherever the profiles are
-// smooth on that scale) out to the radius the builder checks.
-double requiredGapMm(const Row& a, const Row& b, double housingMarginMm) {
-    // Out to the larger clear radius; next to the stop, out to the barrel (the iris blades reach it).
-    const double rMax = std::max(a.surface.semiApertureMm, b.surface.semiApertureMm) +
-                        ((a.stop || b.stop) ? housingMarginMm : 0.0);
+// at 512 radii out to the radius the builder checks (the larger clear radius: beyond it both
+// profiles are flat, also next to the stop, whose blades reach the barrel). The samples are a
+// superset of the builder's 64, so the builder agrees wherever the profiles are smooth on that scale.
+double requiredGapMm(const Row& a, const Row& b) {
+    const double rMax = std::max(a.surface.semiApertureMm, b.surface.semiApertureMm);
     constexpr int kSamples = 512;
     double gap = 0.0;
     for (int k = 0; k <= kSamples; ++k) {
@@ -138,9 +137,9 @@ GeneratedLens randomLens(Rng& rng) {
         const int pieces = v < 0.6 ? 1 : v < 0.9 ? 2 : 3;
         std::string previousGlass;
         // Every surface of an element (or cemented group) gets the same clear radius, which is then
-        // also its mechanical edge: the builder checks crossing surfaces out to the clear radii
-        // (flat beyond), the photon tracer uses the surfaces out to the edges, and only where the
-        // two agree is a lens valid for both (see docs/robustness.md, the builder's gaps).
+        // also its mechanical edge, so that requiredGapMm (surfaces flat beyond their clear radius)
+        // describes the same profile as the builder and the photon tracer (surfaces out to their
+        // mechanical edge, then flat).
         const double groupSa = sa0 * uniform(rng, 0.6, 1.2);
         for (int p = 0; p <= pieces; ++p) {
             Row row;
@@ -169,7 +168,7 @@ GeneratedLens randomLens(Rng& rng) {
     // (surfaces touching at the rim) or tiny.
     std::vector<double> thickness(rows.size(), 0.0);
     for (size_t i = 0; i + 1 < rows.size(); ++i) {
-        const double needed = requiredGapMm(rows[i], rows[i + 1], housingMarginMm);
+        const double needed = requiredGapMm(rows[i], rows[i + 1]);
         const double v = rng.uniform();
         double margin;
         if (rows[i].glassAfter) margin = v < 0.1 ? logUniform(rng, -6.0, -3.0) : uniform(rng, 0.2, 8.0);

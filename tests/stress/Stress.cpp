@@ -13,7 +13,6 @@
 #include <glm/geometric.hpp>
 
 #include "RandomLens.h"
-#include "flare/Coating.h"
 #include "flare/Error.h"
 #include "flare/LensFile.h"
 #include "flare/PhotonTracer.h"
@@ -265,20 +264,29 @@ ReversalOutcome reversal(const LensSystem& lens, const SpectralIndices& indices,
     const double errorPosition = glm::length(back.ray.originMm - points[1]);
     const double errorDirection = glm::length(back.ray.direction + ray.direction);
     // An intersection from an origin far away (grazing rays start up to 10¹¹ mm out; a steep exit
-    // ray may reach the sensor far off the axis) is solved from a quadratic whose discriminant
-    // cancels: its hit point lies off the surface by up to e = ε |o|² |c| / cos θ (o: origin relative
-    // to the vertex, c: curvature; B7 in docs/robustness.md). At the forward trace's first surface
-    // the reversed ray, meeting the surface itself, sees that as a position error e and a normal
-    // (so direction) error e |c| at the start. At the reversed trace's first surface (the last one)
-    // the same errors are carried back like any other (the amplifications above, per unit of
-    // position and of direction).
+    // ray may reach the sensor far off the axis) is solved from the ray's point closest to the
+    // vertex, o′ (intersectConic, when |c cc| > kConicFarOrigin² with cc the conic's value at o;
+    // o: origin relative to the vertex, c: curvature): the rounding of that point, ε |o|, and the
+    // quadratic's cancellation from it, ε |o′|² |c|, put the hit point off the surface by up to
+    // e = ε (|o| + |o′|² |c|) / cos θ (from a nearer origin, e = ε |o|² |c| / cos θ, at most a few
+    // ε |o| / cos θ). At the forward trace's first surface the reversed ray,
+    // meeting the surface itself, sees that as a position error e and a normal (so direction) error
+    // e |c| at the start. At the reversed trace's first surface (the last one) the same errors are
+    // carried back like any other (the amplifications above, per unit of position and of direction).
     auto farHitError = [&](int k, const Ray& r, const glm::dvec3& hit, double* curvature) {
         const Surface& surface = lens.surface(k);
         *curvature = std::abs(surface.curvature()) * std::max(1.0, std::abs(1.0 + surface.conic));
         if (surface.hasPolynomial()) return 0.0;  // polished by Newton's method
         const glm::dvec3 o = r.originMm - glm::dvec3(0.0, 0.0, surface.vertexZMm);
+        const glm::dvec3 nearest = o - glm::dot(o, r.direction) * r.direction;
+        const double distance = glm::length(o);
+        const double c = surface.curvature(), k1 = 1.0 + surface.conic;
+        const double cc = c * (o.x * o.x + o.y * o.y + k1 * o.z * o.z) - 2.0 * o.z;
+        const double solved = std::abs(c * cc) > kConicFarOrigin * kConicFarOrigin
+                                  ? distance + glm::dot(nearest, nearest) * *curvature
+                                  : distance * distance * *curvature;
         const double cosTheta = std::max(kGrazingCosine, std::abs(glm::dot(surface.normalAt(hit), r.direction)));
-        return kEpsilon * glm::dot(o, o) * *curvature / cosTheta;
+        return kEpsilon * solved / cosTheta;
     };
     double cFirst = 0.0, cLast = 0.0;
     const double eFirst = farHitError(0, ray, points[1], &cFirst);
@@ -554,84 +562,6 @@ SequentialCase sequentialCase(int kind, const LensSystem& lens, const SpectralIn
 
 }  // namespace
 
-namespace knownbug {
-
-bool thinFilmNaNAtGrazingIncidence() {
-    static const bool bug = [] {
-        const FresnelTerms t = thinFilmResponse(Coating::magnesiumFluoride(), 1e-10, 1.0, 1.5, true, 550.0);
-        return !std::isfinite(t.rp) || !std::isfinite(t.tp);
-    }();
-    return bug;
-}
-
-namespace {
-// Fates of photons from a fixed generator through a small lens (no coating, black interior).
-long lostPhotons(const char* text, bool rim) {
-    const LensSystem lens = LensSystem::build(parseLensText(text, "known-bug.lens"));
-    const PhotonTracer tracer(lens, {});
-    const SpectralIndices indices = lens.indicesAt(550.0);
-    const Surface& s0 = lens.surface(0);
-    Rng rng(1, 2);
-    PhotonHistory h;
-    long lost = 0;
-    for (int i = 0; i < 4000; ++i) {
-        Ray ray{{0.0, 0.0, -5.0}, {0.0, 0.0, 1.0}};
-        if (rim) {  // at the rim of the first surface, within 1e-9 of it
-            const double phi = 2.0 * std::numbers::pi * rng.uniform();
-            const glm::dvec3 p = pointOn(s0, s0.semiApertureMm * (1.0 + (rng.uniform() - 0.5) * 1e-9), phi);
-            const glm::dvec3 d = direction(0.5 * rng.uniform(), 2.0 * std::numbers::pi * rng.uniform());
-            ray = {p - 20.0 * d, d};
-        }
-        tracer.trace(indices, ray, rng, h);
-        lost += h.fate == PhotonFate::Lost;
-    }
-    return lost;
-}
-}  // namespace
-
-bool photonLostAtCoincidentVertices() {
-    static const bool bug =
-        lostPhotons("name b2\nfocal_length_mm 50\nsurfaces\n 40 4 n=1.5 8\n -40 0 air 8\n 40 4 n=1.5 8\n -40 2 air 8\n"
-                    " stop 30 air 6\n", false) > 0;
-    return bug;
-}
-
-bool photonLostPastBladedIris() {
-    static const bool bug = [] {
-        // A triangular iris (circumradius 1.56 × its nominal radius 5 mm) between a wide element
-        // (8 mm) and a narrow one (5 mm), no barrel margin: photons through the corners of the
-        // opening pass the stop outside the narrow cell's barrel.
-        const LensSystem lens = LensSystem::build(parseLensText(
-            "name b5\nfocal_length_mm 50\niris blades=3\nhousing margin_mm=0\nsurfaces\n 200 4 n=1.5 8\n -200 2 air 8\n"
-            " stop 2 air 5\n 40 4 n=1.5 5\n -40 40 air 5\n",
-            "known-bug.lens"));
-        const PhotonTracer tracer(lens, {});
-        const SpectralIndices indices = lens.indicesAt(550.0);
-        Rng rng(3, 4);
-        PhotonHistory h;
-        long lost = 0;
-        for (int i = 0; i < 4000; ++i) {
-            // Aimed at the stop plane (z = 6) out to the iris's corners (nearly: the first element bends them).
-            const double phi = 2.0 * std::numbers::pi * rng.uniform();
-            const double r = lens.iris().circumradiusMm() * uniform(rng, 0.7, 1.0);
-            const glm::dvec3 target(r * std::cos(phi), r * std::sin(phi), lens.surface(2).vertexZMm);
-            const glm::dvec3 d = direction(0.05 * rng.uniform(), 2.0 * std::numbers::pi * rng.uniform());
-            tracer.trace(indices, Ray{target - (target.z + 5.0) / d.z * d, d}, rng, h);
-            lost += h.fate == PhotonFate::Lost;
-        }
-        return lost > 0;
-    }();
-    return bug;
-}
-
-bool photonLostAtRimSeam() {
-    static const bool bug =
-        lostPhotons("name b3\nfocal_length_mm 50\nsurfaces\n 40 4 n=1.5 8\n -40 2 air 8\n stop 40 air 6\n", true) > 0;
-    return bug;
-}
-
-}  // namespace knownbug
-
 std::string StressReport::summary() const {
     std::ostringstream s;
     s << "lenses: " << lensesTried << " drawn, " << lensesBuilt << " built, " << lensesRejected << " rejected by the builder\n";
@@ -651,7 +581,6 @@ std::string StressReport::summary() const {
     }
     for (const auto& [what, count] : findings) s << "finding " << count << "x: " << what << "\n";
     if (renders > 0) s << "renders: " << renders << " (" << renderPhotons << " photons)\n";
-    for (const auto& [what, count] : excused) s << "excused " << count << "x (known engine bug): " << what << "\n";
     s << "failures: " << failures.size() << "\n";
     for (const std::string& f : failures) s << "  " << f << "\n";
     return s.str();
@@ -684,15 +613,7 @@ StressReport runSequentialStress(const StressConfig& config) {
                 case ReversalOutcome::NotSequential: ++report.reversalsNotSequential; break;
                 default: break;
             }
-            if (!problem.empty()) {
-                // B1: only the throughput is non-finite, and the same trace without Fresnel weights is fine.
-                if (problem.find("non-finite throughput") != std::string::npos && knownbug::thinFilmNaNAtGrazingIncidence()) {
-                    ++report.excused["B1: NaN throughput from a thin-film coating at grazing incidence"];
-                    ctx.fail("[B1] " + problem, sequentialReproducer(c, wavelengthNm), false);
-                    continue;
-                }
-                ctx.fail(problem, sequentialReproducer(c, wavelengthNm));
-            }
+            if (!problem.empty()) ctx.fail(problem, sequentialReproducer(c, wavelengthNm));
         }
     });
     return report;
@@ -712,13 +633,6 @@ StressReport runPhotonStress(const StressConfig& config) {
         bool coincident = false;  // two consecutive vertices at the same z (a zero axial gap)
         for (int k = 0; k + 1 < lens.surfaceCount(); ++k)
             coincident |= lens.surface(k + 1).vertexZMm == lens.surface(k).vertexZMm;
-        // A bladed iris opens out to its circumradius, beyond its area-equivalent radius: does that
-        // reach past the barrel on either side of the stop?
-        const int stop = lens.stopIndex();
-        const auto housing = lens.housing();
-        const double barrel = std::min(stop > 0 ? housing[stop - 1].innerRadiusMm : housing[stop].innerRadiusMm,
-                                       housing[stop].innerRadiusMm);
-        const bool bladedIrisBeyondBarrel = lens.iris().circumradiusMm() > barrel;
         PhotonHistory h;
         long fates[static_cast<int>(PhotonFate::Count)] = {};
         for (int i = 0; i < config.photonsPerLens; ++i) {
@@ -743,20 +657,7 @@ StressReport runPhotonStress(const StressConfig& config) {
                 what += std::string(", ") + kinds[i % static_cast<int>(ObjectRay::Count)];
                 if (coincident) what += ", lens with coincident vertices";
                 ++report.findings[what];
-                const ObjectRay kind = static_cast<ObjectRay>(i % static_cast<int>(ObjectRay::Count));
-                if (h.fate == PhotonFate::Lost && coincident && knownbug::photonLostAtCoincidentVertices()) {
-                    ++report.excused["B2: photon lost in a zero-thickness cell (coincident vertices)"];
-                    what = "[B2] " + what;
-                } else if (h.fate == PhotonFate::Lost && (kind == ObjectRay::FrontEdge || kind == ObjectRay::Grazing) &&
-                           knownbug::photonLostAtRimSeam()) {
-                    ++report.excused["B3: photon lost at the seam of a surface's rim and the cell wall"];
-                    what = "[B3] " + what;
-                } else if (h.fate == PhotonFate::Lost && bladedIrisBeyondBarrel && knownbug::photonLostPastBladedIris()) {
-                    ++report.excused["B5: photon lost through a bladed iris opening that reaches past the barrel"];
-                    what = "[B5] " + what;
-                } else if (h.fate == PhotonFate::Lost) {
-                    ++lost;
-                }
+                lost += h.fate == PhotonFate::Lost;
                 ctx.fail(what, photonReproducer(c), false);
             }
         }
@@ -851,13 +752,6 @@ StressReport runRenderStress(const StressConfig& config) {
 
             auto check = [&](bool ok, const std::string& what) {
                 if (ok) return true;
-                // B1 reaches the image through the guided strategy's forced-sequence weights.
-                if (what.rfind("non-finite", 0) == 0 && options.mode == RenderOptions::Mode::Guided &&
-                    knownbug::thinFilmNaNAtGrazingIncidence()) {
-                    ++report.excused["B1: non-finite render output (guided weights with a thin-film NaN)"];
-                    ctx.fail("[B1] render: " + what + where, "", false);
-                    return false;
-                }
                 ctx.fail("render: " + what + where, "");
                 return false;
             };

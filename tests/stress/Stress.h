@@ -54,31 +54,10 @@ struct StressReport {
     std::map<std::string, long> findings;  // Lost and EventLimit photons by kind of ray and lens
     // Renders.
     long renders = 0, renderPhotons = 0;
-    std::map<std::string, long> excused;  // failures explained by a known engine bug (knownbug::)
     std::vector<std::string> failures;  // each names the check and a reproducer
 
     std::string summary() const;
 };
-
-// Engine bugs the stress runs found (docs/robustness.md, "Bugs found"). Each predicate runs the
-// bug's minimal reproducer and is true while the engine still has the bug; while it does, the
-// runs count the failures it explains under StressReport::excused instead of failing, and as soon
-// as the engine is fixed the same failures count again.
-namespace knownbug {
-// B1: thinFilmResponse (Coating.cpp) returns NaN reflectance/transmittance for p polarisation at
-// (or within ~1e-8 of) grazing incidence: the p admittance n0/cos θ0 divides by a zero cosine.
-bool thinFilmNaNAtGrazingIncidence();
-// B2: PhotonTracer loses photons (fate Lost) in a zero-thickness cell: two consecutive vertices
-// at the same z (a surface touching the next at the vertex, or the stop on a surface's vertex).
-bool photonLostAtCoincidentVertices();
-// B3: PhotonTracer loses photons that refract at the very rim of a surface whose rim meets the
-// cell wall (the photon ends a rounding error outside the wall cylinder, where nothing is found).
-bool photonLostAtRimSeam();
-// B5: PhotonTracer loses photons that pass a bladed iris outside the barrel of the cell they enter:
-// the barrel next to the stop is sized from the stop's nominal (area-equivalent) radius, but the
-// blades' opening reaches out to the polygon's circumradius.
-bool photonLostPastBladedIris();
-}  // namespace knownbug
 
 StressReport runSequentialStress(const StressConfig& config);
 StressReport runPhotonStress(const StressConfig& config);

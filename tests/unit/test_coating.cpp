@@ -2,10 +2,13 @@
 #include <cmath>
 #include <numbers>
 
+#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
 #include "flare/Coating.h"
 #include "flare/Glass.h"
+#include "flare/LensFile.h"
+#include "flare/SequentialTracer.h"
 
 namespace flare {
 namespace {
@@ -66,6 +69,25 @@ TEST(Coating, UncoatedAndZeroThicknessLimitsEqualFresnel) {
             EXPECT_NEAR(f.rp, bare.rp, 1e-13);
         }
     }
+}
+
+// At grazing incidence the p admittance n0 / cos θ0 is infinite: the response must stay finite
+// (it was NaN for cos θ ≲ 10⁻⁸), also through a sequential trace reflected by a coated plate.
+TEST(Coating, ResponseIsFiniteAtGrazingIncidence) {
+    for (double cosThetaI : {0.0, 1e-10, 1e-9}) {
+        const FresnelTerms t = thinFilmResponse(Coating::magnesiumFluoride(), cosThetaI, 1.0, 1.5, true, 550.0);
+        EXPECT_TRUE(std::isfinite(t.rp) && std::isfinite(t.tp)) << "cos θ = " << cosThetaI << ": rp " << t.rp << ", tp " << t.tp;
+    }
+    const LensSystem lens = LensSystem::build(parseLensText(
+        "name plate\nfocal_length_mm 1\ndefault_coating mgf2\nsurfaces\n inf 5 n=1.5 10\n inf 5 air 10\n stop 10 air 10\n", "plate.lens"));
+    const glm::dvec3 d = glm::normalize(glm::dvec3(1.0, 0.0, 1e-10));
+    const glm::dvec3 onPlate(1.0, 0.0, 0.0);
+    const int reflections[] = {0};
+    SequentialPath path;
+    path.reflections = reflections;
+    path.end = SequentialPath::End::ObjectSpace;
+    const TraceResult r = tracePath(lens, lens.indicesAt(550.0), Ray{onPlate - (1.0 / d.z) * d, d}, path);
+    EXPECT_TRUE(std::isfinite(r.throughput)) << toString(r.status) << " " << r.throughput;
 }
 
 TEST(Coating, SameReflectanceFromBothSidesOfALosslessStack) {

@@ -121,6 +121,12 @@ TEST(LensFileErrors, NegativeAirSpaceEdgeThickness) {
                 6, "air space edge thickness");
 }
 
+TEST(LensFileErrors, SurfaceCrossingTheIrisBlades) {
+    // The blades (the stop plane) reach out to the barrel, not only to the stop's clear radius:
+    // this bowl lies in front of the stop plane from r ≈ 6.3 mm on, inside its 9.9 mm edge.
+    expectError(lens("stop 2 air 5\n-10 4 N-BK7 9.9\n40 30 air 9.9\n"), 5, "air space edge thickness");
+}
+
 TEST(LensFileErrors, UnknownVariableGap) {
     expectError(std::string(kHeader) + "zoom wide=20 tele=40\ngap D1 wide=1 tele=2\nsurfaces\n"
                 "40 5 N-BK7 10\n-60 D1 air 10\nstop D9 air 8\n50 3 N-BK7 9\n-80 auto air 9\n",

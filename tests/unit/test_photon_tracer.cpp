@@ -1,5 +1,6 @@
 // The non-sequential photon tracer against closed forms (an uncoated plate) and counting
 // identities (every photon ends in exactly one fate).
+#include <array>
 #include <cmath>
 #include <string>
 
@@ -138,6 +139,90 @@ TEST(PhotonTracer, SteepRayInsideGlassMeetsTheElementEdge) {
     // The ray passes the stop at x = 9 − 1.73 ≈ 7.3 mm (inside its 10 mm), meets the plate at
     // x = 9 mm (< 12 mm clear), and in the glass moves 3.5 mm outwards: past the 12 mm edge.
     EXPECT_GT(edge, 800);
+}
+
+// Photons of the rays `aim` draws through `text` (uncoated, black interior), by fate.
+template <typename Aim>
+std::array<long, static_cast<int>(PhotonFate::Count)> fatesThrough(const LensSystem& lens, int photons, std::uint64_t seed,
+                                                                   Aim aim) {
+    const PhotonTracer tracer(lens, {});
+    const SpectralIndices indices = lens.indicesAt(550.0);
+    Rng rng(seed, 0);
+    PhotonHistory history;
+    std::array<long, static_cast<int>(PhotonFate::Count)> fates{};
+    for (int i = 0; i < photons; ++i) {
+        tracer.trace(indices, aim(rng), rng, history);
+        ++fates[static_cast<int>(history.fate)];
+    }
+    return fates;
+}
+
+glm::dvec3 directionAt(double theta, double phi) {
+    return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
+}
+
+// Two elements touching at their vertices (an air space of thickness 0, which the parser accepts):
+// an axial photon leaves the first element exactly where the second begins, so the surface ahead
+// is met at t = 0. It must cross both interfaces there, as through an air space of 10⁻⁴ mm.
+TEST(PhotonTracer, PhotonsCrossSurfacesTouchingAtTheVertex) {
+    auto lensWithGap = [](const std::string& gap) {
+        return LensSystem::build(parseLensText("name touching\nfocal_length_mm 50\nsurfaces\n 40 4 n=1.5 8\n -40 " + gap +
+                                                   " air 8\n 40 4 n=1.5 8\n -40 2 air 8\n stop 30 air 6\n",
+                                               "touching.lens"));
+    };
+    const auto axial = [](Rng&) { return Ray{{0.0, 0.0, -5.0}, {0.0, 0.0, 1.0}}; };
+    const int N = 20000;
+    const auto touching = fatesThrough(lensWithGap("0"), N, 1, axial);
+    const auto apart = fatesThrough(lensWithGap("1e-4"), N, 2, axial);
+    EXPECT_EQ(touching[static_cast<int>(PhotonFate::Lost)], 0);
+    // Same transmission (to the sensor) within 4 standard deviations of the difference.
+    const double p1 = touching[static_cast<int>(PhotonFate::AbsorbedSensor)] / double(N);
+    const double p2 = apart[static_cast<int>(PhotonFate::AbsorbedSensor)] / double(N);
+    EXPECT_GT(p1, 0.5);
+    EXPECT_LT(std::abs(p1 - p2), 4.0 * std::sqrt((p1 * (1.0 - p1) + p2 * (1.0 - p2)) / N));
+}
+
+// A photon that refracts within the seam tolerance of a surface's rim, where the rim meets the
+// element's edge, ends a rounding error outside the edge cylinder: it meets the edge at once.
+TEST(PhotonTracer, NoPhotonIsLostAtTheRimOfASurface) {
+    const LensSystem lens =
+        LensSystem::build(parseLensText("name rim\nfocal_length_mm 50\nsurfaces\n 40 4 n=1.5 8\n -40 2 air 8\n stop 40 air 6\n", "rim.lens"));
+    const Surface& s0 = lens.surface(0);
+    const auto atRim = [&](Rng& rng) {  // at the rim of the first surface, within 5·10⁻¹⁰ of it
+        const double phi = 2.0 * M_PI * rng.uniform();
+        const double r = s0.semiApertureMm * (1.0 + (rng.uniform() - 0.5) * 1e-9);
+        double sag = 0.0;
+        s0.sagMm(r * r, &sag);
+        const glm::dvec3 p(r * std::cos(phi), r * std::sin(phi), s0.vertexZMm + sag);
+        const glm::dvec3 d = directionAt(0.5 * rng.uniform(), 2.0 * M_PI * rng.uniform());
+        return Ray{p - 20.0 * d, d};
+    };
+    const auto fates = fatesThrough(lens, 20000, 1, atRim);
+    EXPECT_EQ(fates[static_cast<int>(PhotonFate::Lost)], 0);
+    EXPECT_GT(fates[static_cast<int>(PhotonFate::AbsorbedEdge)], 0);  // the seam is really met
+}
+
+// A triangular iris opens out to its circumradius (1.56 × its nominal radius of 5 mm) between a
+// wide element (8 mm) and a narrow one (5 mm), with no barrel margin: the barrel behind the stop
+// must reach the opening's corners, or light through them would pass outside it.
+TEST(PhotonTracer, NoPhotonIsLostThroughTheCornersOfABladedIris) {
+    const LensSystem lens = LensSystem::build(parseLensText(
+        "name corners\nfocal_length_mm 50\niris blades=3\nhousing margin_mm=0\nsurfaces\n 200 4 n=1.5 8\n -200 2 air 8\n"
+        " stop 2 air 5\n 40 4 n=1.5 5\n -40 40 air 5\n",
+        "corners.lens"));
+    const int stop = lens.stopIndex();
+    EXPECT_GE(lens.surface(stop).mechSemiDiameterMm, lens.iris().circumradiusMm());
+    EXPECT_GE(lens.housing()[stop].innerRadiusMm, lens.iris().circumradiusMm());
+    const auto atCorners = [&](Rng& rng) {  // aimed at the stop plane out to the opening's corners
+        const double phi = 2.0 * M_PI * rng.uniform();
+        const double r = lens.iris().circumradiusMm() * (0.7 + 0.3 * rng.uniform());
+        const glm::dvec3 target(r * std::cos(phi), r * std::sin(phi), lens.surface(stop).vertexZMm);
+        const glm::dvec3 d = directionAt(0.05 * rng.uniform(), 2.0 * M_PI * rng.uniform());
+        return Ray{target - (target.z + 5.0) / d.z * d, d};
+    };
+    const auto fates = fatesThrough(lens, 20000, 3, atCorners);
+    EXPECT_EQ(fates[static_cast<int>(PhotonFate::Lost)], 0);
+    EXPECT_GT(fates[static_cast<int>(PhotonFate::AbsorbedHousing)], 0);  // beyond the narrow element
 }
 
 TEST(PhotonTracer, PathKeysEncodeTheReflectionSequence) {

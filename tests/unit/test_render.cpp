@@ -3,9 +3,13 @@
 // estimate of a ghost agrees with the deterministic preview, every unguided photon is accounted
 // for, and the image depends on the seed only (not on threads, not on checkpoints).
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
+#include <utility>
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -13,22 +17,10 @@
 #include "flare/Error.h"
 #include "flare/Preview.h"
 #include "flare/Render.h"
+#include "RenderTestUtil.h"
 
 namespace flare {
 namespace {
-
-// An uncoated air-spaced doublet (f ≈ 50 mm): its ghosts are bright (R ≈ 4–6 % per surface), so
-// naive photon tracing converges on them in a unit test.
-const char* kDoublet = R"(name test doublet
-focal_length_mm 50
-sensor width_mm=36 height_mm=24 reflectance=0.02
-surfaces
-   35.0    6.0    n=1.62     13
-  -90.0    3.0    air        13
-   stop    4.0    air        9
-  -60.0    2.5    n=1.72     11
-  400.0    auto   air        11
-)";
 
 std::string writeTemp(const std::string& name, const std::string& text) {
     const auto dir = std::filesystem::temp_directory_path() / "flare_render_test";
@@ -39,7 +31,7 @@ std::string writeTemp(const std::string& name, const std::string& text) {
 }
 
 Scene doubletScene(double angularDiameterDeg = 0.53) {
-    const std::string lens = writeTemp("doublet.lens", kDoublet);
+    const std::string lens = writeTemp("doublet.lens", test::kUncoatedDoublet);
     const std::string text = R"({
   "lens": ")" + lens + R"(",
   "sensor": { "resolution": [180, 120] },
@@ -248,6 +240,44 @@ TEST(Render, ResumingFromACheckpointGivesTheUninterruptedImage) {
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find("render.checkpoint"), std::string::npos);
     }
+}
+
+// A checkpoint is input like any file: a corrupt or hostile one holding a NaN or an infinity (in a
+// tally or in the film) is refused, instead of turning every reported power or pixel into NaN.
+TEST(Render, CheckpointWithANonFiniteValueIsRefused) {
+    const Scene scene = doubletScene();
+    const LensSystem lens = buildSceneLens(scene);
+    RenderOptions o = optionsFor(scene, lens, RenderOptions::Mode::Guided);
+    o.batchPhotons = 64;
+    o.batchesPerPass = 2;
+    Renderer first(lens, scene, o);
+    first.runPass();
+    const std::string checkpoint = writeTemp("nan.checkpoint", "");
+    first.saveCheckpoint(checkpoint);
+    std::ifstream in(checkpoint, std::ios::binary);
+    const std::string good((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    in.close();
+
+    // The checkpoint: a 3-word header, the statistics, two doubles per tally, then the film (a
+    // magic word, five int32 and per tile a presence byte followed by its doubles).
+    const size_t tallies = 3 * sizeof(std::uint64_t) + sizeof(RenderStatistics);
+    const size_t film = tallies + 2 * sizeof(double) *
+                                      (first.tallies().size() + first.layerTallies().size() + first.scatterSourceTallies().size());
+    size_t tile = film + sizeof(std::uint64_t) + 5 * sizeof(std::int32_t);
+    while (tile < good.size() && good[tile] == 0) ++tile;  // the first tile present
+    ASSERT_LT(tile + sizeof(double), good.size());
+    for (const auto& [offset, value] : {std::pair{tallies, std::nan("")}, std::pair{tile + 1, HUGE_VAL}}) {
+        std::string bad = good;
+        std::memcpy(bad.data() + offset, &value, sizeof value);
+        std::ofstream(checkpoint, std::ios::binary | std::ios::trunc) << bad;
+        Renderer resumed(lens, scene, o);
+        EXPECT_THROW(resumed.loadCheckpoint(checkpoint), InputError) << "a " << value << " at byte " << offset;
+    }
+    // The intact file still loads.
+    std::ofstream(checkpoint, std::ios::binary | std::ios::trunc) << good;
+    Renderer resumed(lens, scene, o);
+    EXPECT_NO_THROW(resumed.loadCheckpoint(checkpoint));
+    std::filesystem::remove(checkpoint);
 }
 
 TEST(Render, LightBehindTheLensIsSkippedAndReported) {

@@ -1,5 +1,5 @@
 // Scattering: the Henyey–Greenstein sampler against its density, Beer–Lambert through a
-// homogeneous glass and through a constant OpenVDB grid (delta tracking in the photon tracer,
+// homogeneous glass, through a constant OpenVDB grid and through a grid with a step (delta tracking in the photon tracer,
 // ratio tracking for the guided weight), energy with nothing absorbing, the scatter layer against
 // the scattering coefficient, zero coverage giving exactly the clean image, and the hybrid with
 // dust and bulk scattering against naive tracing.
@@ -12,6 +12,7 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
+#include "RenderTestUtil.h"
 #include "TestUtil.h"
 #include "flare/Error.h"
 #include "flare/LensFile.h"
@@ -127,6 +128,21 @@ TEST(Scattering, BeerLambertThroughAConstantVdbGrid) {
     expectBeerLambert(medium, 0.125, "constant grid");
 }
 
+TEST(Scattering, BeerLambertThroughAGridWithAStep) {
+    // Density 0.8 in the front half of the plate, 3.2 in the back half: transmittance
+    // exp(−σt·0.8·2.5 mm − σt·3.2·2.5 mm), the effective σt of the whole 5 mm is σt·(0.8 + 3.2)/2.
+    VolumeGrid::Builder builder("density", 0.5, {-13.0, -13.0, 0.0});
+    for (int i = 0; i < 52; ++i)
+        for (int j = 0; j < 52; ++j)
+            for (int k = 0; k < 10; ++k) builder.set(i, j, k, k < 5 ? 0.8 : 3.2);
+    BulkMedium medium;
+    medium.cell = 2;
+    medium.scatteringPerMm = 0.03;
+    medium.absorptionPerMm = 0.02;
+    medium.grid = std::make_shared<VolumeGrid>(builder.build());
+    expectBeerLambert(medium, 0.05 * (0.8 + 3.2) / 2.0, "step grid");
+}
+
 TEST(Scattering, NothingAbsorbingMeansEveryPhotonEscapesOrReachesTheSensor) {
     const LensSystem lens = test::loadLens("lenses/double-gauss-50mm.lens");
     InteriorMaterials white;
@@ -160,21 +176,10 @@ TEST(Scattering, NothingAbsorbingMeansEveryPhotonEscapesOrReachesTheSensor) {
     EXPECT_GT(out, N * 95 / 100);
 }
 
-const char* kDoublet = R"(name test doublet
-focal_length_mm 50
-sensor width_mm=36 height_mm=24 reflectance=0.02
-surfaces
-   35.0    6.0    n=1.62     13
-  -90.0    3.0    air        13
-   stop    4.0    air        9
-  -60.0    2.5    n=1.72     11
-  400.0    auto   air        11
-)";
-
 Scene doubletScene(const std::string& scattering) {
     const auto dir = std::filesystem::temp_directory_path() / "flare_scattering_test";
     std::filesystem::create_directories(dir);
-    std::ofstream(dir / "doublet.lens") << kDoublet;
+    std::ofstream(dir / "doublet.lens") << test::kUncoatedDoublet;
     const std::string text = R"({ "lens": ")" + (dir / "doublet.lens").string() + R"(",
   "sensor": { "resolution": [120, 80] },
   "lights": [ { "type": "directional", "field_deg": [4.0, 2.5], "angular_diameter_deg": 0.53,
@@ -183,26 +188,14 @@ Scene doubletScene(const std::string& scattering) {
     return parseSceneText(text, "doublet.json", "");
 }
 
-RenderOptions renderOptions(const Scene& scene, const LensSystem& lens, RenderOptions::Mode mode) {
-    RenderOptions o;
-    o.mode = mode;
-    o.seed = 4;
-    o.film.widthPx = scene.sensor.widthPx;
-    o.film.heightPx = scene.sensor.heightPx;
-    o.film.widthMm = lens.sensor().widthMm;
-    o.film.heightMm = lens.sensor().heightMm;
-    applySceneScattering(scene, lens, o);
-    return o;
-}
-
 TEST(Scattering, ZeroCoverageGivesExactlyTheCleanImage) {
     const Scene clean = doubletScene(R"({ "housing": { "diffuse": 0.03 } })");
     const Scene zero = doubletScene(
         R"({ "housing": { "diffuse": 0.03 }, "dust": [ { "surface": 1, "coverage": 0 } ],
              "grease": [ { "surface": 4, "coverage": 0, "roughness": 0.2 } ] })");
     const LensSystem lens = buildSceneLens(clean);
-    Renderer a(lens, clean, renderOptions(clean, lens, RenderOptions::Mode::Guided));
-    Renderer b(lens, zero, renderOptions(zero, lens, RenderOptions::Mode::Guided));
+    Renderer a(lens, clean, test::sceneRenderOptions(clean, lens, RenderOptions::Mode::Guided));
+    Renderer b(lens, zero, test::sceneRenderOptions(zero, lens, RenderOptions::Mode::Guided));
     a.runPass();
     b.runPass();
     for (int l = 0; l < kFixedLayerCount; ++l) EXPECT_EQ(a.layerXyz(l), b.layerXyz(l)) << l;
@@ -215,7 +208,7 @@ TEST(Scattering, ScatterLayerGrowsWithTheScatteringCoefficient) {
         const Scene scene = doubletScene(R"({ "housing": { "diffuse": 0 }, "edges": { "diffuse": 0 }, "iris": { "diffuse": 0 },
             "bulk": [ { "element": 1, "scattering_per_mm": )" + std::to_string(sigma) + R"(, "g": 0.5 } ] })");
         const LensSystem lens = buildSceneLens(scene);
-        Renderer r(lens, scene, renderOptions(scene, lens, RenderOptions::Mode::Guided));
+        Renderer r(lens, scene, test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Guided));
         for (int p = 0; p < 6; ++p) r.runPass();
         power[i] = r.tallyPowerW(r.layerTallies()[kLayerScatter]);
         error[i] = r.tallyStandardErrorW(r.layerTallies()[kLayerScatter]);
@@ -235,22 +228,14 @@ TEST(Scattering, GuidedAgreesWithNaiveWithDustAndBulkScattering) {
         "dust": [ { "surface": 1, "coverage": 0.05, "albedo": 0.6 } ],
         "bulk": [ { "element": 4, "scattering_per_mm": 0.02, "absorption_per_mm": 0.01, "g": 0.6 } ] })");
     const LensSystem lens = buildSceneLens(scene);
-    Renderer naive(lens, scene, renderOptions(scene, lens, RenderOptions::Mode::Naive));
-    Renderer guided(lens, scene, renderOptions(scene, lens, RenderOptions::Mode::Guided));
+    Renderer naive(lens, scene, test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Naive));
+    Renderer guided(lens, scene, test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Guided));
     for (int p = 0; p < 30; ++p) naive.runPass();
     for (int p = 0; p < 8; ++p) guided.runPass();
     // Direct, ghost and scatter: the layers the clear-crossing weight and the ownership rule act
     // on. (`higher` comes from a few rare photons in this short guided run, too few for its
     // standard error to mean much; Render.GuidedAgreesWithNaivePerGhostAndPerLayer covers it.)
-    const int layers[] = {kLayerDirect, kLayerGhost, kLayerScatter};
-    const double z = test::normalTwoSidedCritical(1e-3 / 3);
-    for (int l : layers) {
-        const PathTally& a = guided.layerTallies()[l];
-        const PathTally& b = naive.layerTallies()[l];
-        const double sigma = std::hypot(guided.tallyStandardErrorW(a), naive.tallyStandardErrorW(b));
-        EXPECT_LT(std::abs(guided.tallyPowerW(a) - naive.tallyPowerW(b)), z * sigma)
-            << renderLayerName(l) << ": guided " << guided.tallyPowerW(a) << ", naive " << naive.tallyPowerW(b);
-    }
+    test::expectGuidedAgreesWithNaive(guided, naive, {kLayerDirect, kLayerGhost, kLayerScatter});
     EXPECT_GT(naive.tallyPowerW(naive.scatterSourceTallies()[static_cast<int>(ScatterSource::Dust) - 1]), 0.0);
 }
 

@@ -57,6 +57,19 @@ TEST(Surface, NearlyFlatSphereHasNoCancellation) {
     EXPECT_NEAR(ray.at(hit.tMm).z, 25.0 / (2.0 * 1e9), 1e-15);
 }
 
+// From a far origin the quadratic's discriminant b² − a c cancels: solved as given, this hit (an
+// origin 2·10⁵ mm away, nearly parallel to the vertex plane, on an R = 2.5 mm sphere) missed the
+// surface by 8·10⁻⁷ mm. Solved from the ray's point nearest the vertex it lies on the surface to
+// rounding (the residual is then ~4·10⁻¹⁴ mm, mostly the rounding of the hit point o + t d itself).
+TEST(Surface, HitFromAFarOriginLiesOnTheSurface) {
+    const Surface s = sphere(2.5257321427787489, 0.87773556188973056);
+    const glm::dvec3 d(-0x1.eb0785f6a29bfp-1, -0x1.221022b0103e3p-2, 0x1.6df0dc5089dc3p-18);
+    const Ray ray{{0x1.7340054c3d8bbp+17, 0x1.b69e272541b66p+15, -0x1.00005b7c37142p+0}, d};
+    const SurfaceHit hit = intersect(s, ray);
+    ASSERT_EQ(hit.status, HitStatus::Hit);
+    EXPECT_LT(residual(s, ray.at(hit.tMm)), 1e-12) << "the hit point is off the surface";
+}
+
 TEST(Surface, ParaboloidMatchesClosedForm) {
     Surface s = sphere(20.0, 15.0);
     s.conic = -1.0;  // z = r² / (2R)
