@@ -3,11 +3,15 @@
 # Release build in build/. Usage: scripts/setup.sh [extra cmake arguments]
 #        scripts/setup.sh --fuzz   also installs clang and libFuzzer, and configures nothing
 #                                  (scripts/fuzz.sh configures build-fuzz/ itself)
+#        scripts/setup.sh --bench  also installs python3-matplotlib (the plots of scripts/bench.sh),
+#                                  and configures nothing (scripts/bench.sh builds what it runs)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 fuzz=0
+bench=0
 if [ "${1:-}" = "--fuzz" ]; then fuzz=1; shift; fi
+if [ "${1:-}" = "--bench" ]; then bench=1; shift; fi
 
 packages=(
   build-essential cmake ninja-build pkg-config python3
@@ -17,6 +21,8 @@ packages=(
 # Only for a fuzz build: clang with its sanitizer and libFuzzer runtimes (16: the engine captures
 # structured bindings in lambdas, which clang supports from 16 on; Debian 12's default is 14).
 if [ "$fuzz" = 1 ]; then packages+=(clang-16 libclang-rt-16-dev); fi
+# Only for the benchmark plots (Debian's python3, /usr/bin/python3).
+if [ "$bench" = 1 ]; then packages+=(python3-matplotlib); fi
 
 missing=()
 for p in "${packages[@]}"; do
@@ -33,6 +39,6 @@ if [ ${#missing[@]} -gt 0 ]; then
   apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
-if [ "$fuzz" = 1 ]; then exit 0; fi
+if [ "$fuzz" = 1 ] || [ "$bench" = 1 ]; then exit 0; fi
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
 echo "setup: configured build/ (Release)"
