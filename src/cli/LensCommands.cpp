@@ -176,8 +176,9 @@ void addLensCommands(CLI::App& app) {
     draw->add_option("--rays", *rays, "rays per field fan")->check(CLI::Range(1, 1000));
     draw->add_option("--field", *field, "off-axis field angle in degrees (default: the sensor's half width)")
         ->check(CLI::Range(-89.0, 89.0));
-    draw->add_option("--ghost", *ghost, "draw this ghost's ray paths: reflecting surfaces I,J (1-based, in the order the "
-                                       "light meets them; the sensor is surfaces+1)")
+    draw->add_option("--ghost", *ghost, "draw this ghost's ray paths: its reflecting surfaces, 1-based, the sensor being "
+                                       "surfaces+1 (two in either order, e.g. 3,7 or 7,3; four in the order the light "
+                                       "meets them)")
         ->delimiter(',')
         ->expected(2, 4);
     draw->callback([drawOptions, output, rays, field, ghost] {
@@ -207,13 +208,16 @@ void addLensCommands(CLI::App& app) {
                                      "--ghost: surface " + std::to_string(number) + " is not a reflecting surface");
                 reflections.push_back(index);
             }
+            // Two reflections can only be met in one order (the farther surface first), so either
+            // order names the same ghost; `flare ghosts` prints it as met (e.g. 7-3).
+            if (reflections.size() == 2 && reflections[0] < reflections[1]) std::swap(reflections[0], reflections[1]);
             const std::vector<GhostPath> valid = enumerateGhosts(system, static_cast<int>(reflections.size()), true);
             if (std::find(valid.begin(), valid.end(), GhostPath{reflections}) == valid.end())
                 throw InputError(drawOptions->file, 0,
-                                 "--ghost: not a ghost path (after reflecting at J the light must travel back to I < J)");
+                                 "--ghost: not a ghost path (after each reflection the light must travel back to a surface in front of it)");
             options.fieldsDeg = {field->value_or(0.0)};
             std::string surfaces;
-            for (int number : *ghost) surfaces += (surfaces.empty() ? "" : "-") + std::to_string(number);
+            for (int index : reflections) surfaces += (surfaces.empty() ? "" : "-") + std::to_string(index + 1);
             options.title = system.name() + ", ghost " + surfaces;
             fans = traceRayFans(system, LensDrawingOptions{1, {options.fieldsDeg[0]}, options.wavelengthNm, ""});
             for (DrawnRay& r : traceGhostRays(system, reflections, options.fieldsDeg[0], *rays, options.wavelengthNm))

@@ -48,15 +48,6 @@ PreviewLight previewLight(const LightSpec& spec, int wavelengths) {
     return light;
 }
 
-ImageLayer toRgb(const std::string& name, const std::vector<float>& xyz, int width, int height) {
-    ImageLayer layer{name, width, height, std::vector<float>(xyz.size())};
-    for (size_t i = 0; i < xyz.size(); i += 3) {
-        const glm::dvec3 rgb = xyzToLinearSrgb({xyz[i], xyz[i + 1], xyz[i + 2]});
-        for (int c = 0; c < 3; ++c) layer.rgb[i + c] = static_cast<float>(rgb[c]);
-    }
-    return layer;
-}
-
 void add(std::vector<float>& into, const std::vector<float>& from) {
     if (into.empty()) into.assign(from.size(), 0.0f);
     for (size_t i = 0; i < from.size(); ++i) into[i] += from[i];
@@ -96,17 +87,17 @@ void run(const PreviewCommandOptions& o) {
     std::vector<float> total = direct;
     add(total, ghosts);
     const int w = options.widthPx, h = options.heightPx;
-    std::vector<ImageLayer> layers{toRgb("", total, w, h)};
+    std::vector<ImageLayer> layers{rgbLayerFromXyz("", total, w, h)};
     ExrWriteOptions storage;
     if (o.layers) {
-        layers.push_back(toRgb("direct", direct, w, h));
-        layers.push_back(toRgb("ghost", ghosts, w, h));
+        layers.push_back(rgbLayerFromXyz("direct", direct, w, h));
+        layers.push_back(rgbLayerFromXyz("ghost", ghosts, w, h));
         // Per-ghost layers at half precision (11 significant bits, what compositing uses), which
         // halves the file: as half floats where the layer's values fit half's range, else as
         // floats rounded to half's precision (a weak ghost can lie below half's range in the
         // lights' units). The main image and the direct and ghost layers stay exact.
         for (auto& [name, xyz] : perGhost) {
-            layers.push_back(toRgb(name, xyz, w, h));
+            layers.push_back(rgbLayerFromXyz(name, xyz, w, h));
             std::vector<float>().swap(xyz);  // one copy at a time
             if (!o.floatLayers)
                 storage.storage[name] = fitsHalf(layers.back()) ? ExrStorage::Half : ExrStorage::FloatHalfPrecision;
@@ -123,7 +114,7 @@ void run(const PreviewCommandOptions& o) {
     // The light's own image is 10⁴–10⁶ times brighter than its ghosts: expose for the ghosts (two
     // stops under the ghost layer's auto exposure, so that overlapping ghosts keep their colour) and
     // let the light clip, as a photograph of a flare does.
-    if (!o.png.empty()) writePng(o.png, layers.front(), 0.25 * autoExposure(toRgb("ghost", ghosts, w, h)));
+    if (!o.png.empty()) writePng(o.png, layers.front(), 0.25 * autoExposure(rgbLayerFromXyz("ghost", ghosts, w, h)));
 
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (!o.quiet)

@@ -44,15 +44,6 @@ struct RenderCommandOptions {
 std::atomic<bool> gInterrupted{false};
 extern "C" void onInterrupt(int) { gInterrupted.store(true); }
 
-ImageLayer toRgb(const std::string& name, const std::vector<float>& xyz, int width, int height) {
-    ImageLayer layer{name, width, height, std::vector<float>(xyz.size())};
-    for (size_t i = 0; i < xyz.size(); i += 3) {
-        const glm::dvec3 rgb = xyzToLinearSrgb({xyz[i], xyz[i + 1], xyz[i + 2]});
-        for (int c = 0; c < 3; ++c) layer.rgb[i + c] = static_cast<float>(rgb[c]);
-    }
-    return layer;
-}
-
 const char* kindName(PathTally::Kind kind) {
     switch (kind) {
         case PathTally::Kind::Direct: return "direct";
@@ -241,9 +232,9 @@ int run(const RenderCommandOptions& o) {
         const std::vector<float> xyz = renderer.layerXyz(l);
         if (l < kFixedLayerCount)
             for (size_t i = 0; i < xyz.size(); ++i) total[i] += xyz[i];
-        layers.push_back(toRgb(renderer.layerNames()[l], xyz, w, h));
+        layers.push_back(rgbLayerFromXyz(renderer.layerNames()[l], xyz, w, h));
     }
-    layers.front() = toRgb("", total, w, h);
+    layers.front() = rgbLayerFromXyz("", total, w, h);
     std::vector<float> variance = renderer.film().varianceRgb();
     if (!variance.empty()) layers.push_back(ImageLayer{"variance", w, h, std::move(variance)});
 

@@ -311,4 +311,13 @@ double autoExposure(const ImageLayer& image) {
     return displayTarget / (1.0 - displayTarget) / lit[index];
 }
 
+ImageLayer rgbLayerFromXyz(const std::string& name, const std::vector<float>& xyz, int width, int height) {
+    ImageLayer layer{name, width, height, std::vector<float>(xyz.size())};
+    for (size_t i = 0; i < xyz.size(); i += 3) {
+        const glm::dvec3 rgb = xyzToLinearSrgb({xyz[i], xyz[i + 1], xyz[i + 2]});
+        for (int c = 0; c < 3; ++c) layer.rgb[i + c] = static_cast<float>(rgb[c]);
+    }
+    return layer;
+}
+
 }  // namespace flare

@@ -22,6 +22,9 @@ struct ImageLayer {
     std::vector<float> rgb;
 };
 
+// A layer of linear Rec.709 RGB from interleaved CIE XYZ (what the preview and the film hold).
+ImageLayer rgbLayerFromXyz(const std::string& name, const std::vector<float>& xyz, int width, int height);
+
 // How a layer's channels are stored in an EXR.
 enum class ExrStorage : std::uint8_t {
     Float,  // 32-bit float, exact

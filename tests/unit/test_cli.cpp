@@ -60,7 +60,14 @@ TEST(Cli, LensDrawGhostPathsAndRejectsNonGhosts) {
     svg << in.rdbuf();
     EXPECT_NE(svg.str().find("#e377c2"), std::string::npos);  // the ghost rays' colour
     EXPECT_NE(svg.str().find("ghost 7-3"), std::string::npos);
-    EXPECT_EQ(run("lens draw double-gauss-50mm --ghost 3,7 -o " + out).exitCode, 2);  // not a ghost order
+    // Two reflections name one ghost in either order, titled as the light meets them.
+    const std::string swapped = testing::TempDir() + "/flare_cli_ghost_swapped.svg";
+    ASSERT_EQ(run("lens draw double-gauss-50mm --ghost 3,7 --field 5 --rays 5 -o " + swapped).exitCode, 0);
+    std::ifstream inSwapped(swapped);
+    std::stringstream svgSwapped;
+    svgSwapped << inSwapped.rdbuf();
+    EXPECT_EQ(svgSwapped.str(), svg.str());
+    EXPECT_EQ(run("lens draw double-gauss-50mm --ghost 7,3,2,5 -o " + out).exitCode, 2);  // 2 lies behind 3
     EXPECT_EQ(run("lens draw double-gauss-50mm --ghost 6,3 -o " + out).exitCode, 2);  // 6 is the stop
 }
 
