@@ -51,6 +51,10 @@ nlohmann::json ghostJson(const GhostEstimate& g) {
     j["peak_irradiance_ratio"] = g.peakIrradianceRatio;
     j["live_pupil_cells"] = g.pupil.liveCount();
     j["pruned"] = g.pruned;
+    // false: the analysis ran out of its ray budget on this path and the estimate is from the
+    // part of the region it found (only on lenses far from the shipped ones).
+    j["resolved"] = g.resolved;
+    j["traced_rays"] = g.tracedRays;
     return j;
 }
 

@@ -36,9 +36,12 @@ GhostEstimate estimate(const LensSystem& lens, const SpectralIndices& indices, c
     search.minLivePoints = options.minLivePoints;
     search.minPassingPoints = options.minPassingPoints;
     search.requireOnSensor = true;
+    search.maxRays = options.maxRaysPerPath;
     const PupilMesh mesh = meshLiveRegion(tracer, grid, search);
     estimate.pupil = mesh.region;
     estimate.lattice = mesh.lattice;
+    estimate.tracedRays = mesh.tracedRays;
+    estimate.resolved = mesh.resolved;
     if (mesh.empty()) return estimate;
 
     double power = 0.0;

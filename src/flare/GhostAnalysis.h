@@ -18,7 +18,8 @@ namespace flare {
 // Cells of the pupil grid whose rays survive a path and land on the sensor. The analysis marks
 // every cell with a surviving ray at one of its corners (and, where it refined a thin part of the
 // region into smaller cells, the cell holding them), so the marked set covers the live region as
-// far as the analysis resolves it, with a partial cell along its edge.
+// far as the analysis resolves it, with a partial cell along its edge. The cells are at most 128
+// across the region (coarser where the region's pieces are fine cells far apart).
 struct LivePupilRegion {
     double aMinMm = 0.0, bMinMm = 0.0;  // corner of the region on the pupil plane
     double cellMm = 0.0;                // square cells
@@ -39,8 +40,20 @@ struct GhostEstimate {
     // The cells of the adaptive search that hold the live region (finer where it is thin): the
     // preview traces its other wavelengths on them.
     PupilLattice lattice;
+    long tracedRays = 0;  // by the search and the mesh
+    // False when the search ran out of its ray budget (PupilMeshOptions::maxRays) before it had
+    // resolved the region: a region folded along many events (random lenses, never the shipped
+    // ones). Power, footprint and region are then what the cells found so far give.
+    bool resolved = true;
     bool pruned = false;
 };
+
+// The rays the analysis may start for one path (and the preview for one path at one wavelength),
+// which bounds its time and memory (about 0.1 kB a ray, plus 8 bytes per event of the path; the
+// edge location may add as many probe rays again). The shipped lenses need at most ~39 000
+// (99 % of their paths fewer than 10 000); random lenses whose regions fold along many events
+// (strong aspheres, caustics) asked for hundreds of thousands (half a gigabyte for one analysis).
+inline constexpr long kMaxRaysPerPath = 65536;
 
 struct GhostAnalysisOptions {
     int order = 2;
@@ -54,6 +67,7 @@ struct GhostAnalysisOptions {
     int fineCells = 16;
     int minLivePoints = 150;
     int minPassingPoints = 32;  // the rays kept alive after each event, to follow the region
+    long maxRaysPerPath = kMaxRaysPerPath;
     double keepShare = 0.999;           // keep the strongest ghosts carrying this share of ghost power...
     double relativeThreshold = 1e-5;    // ...and any ghost above this fraction of the strongest
 };

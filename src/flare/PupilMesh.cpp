@@ -23,6 +23,7 @@ constexpr int kAccuracyRounds = 3;  // of refineForAccuracy
 constexpr int kBoundaryRounds = 3;  // of refineBoundary
 constexpr int kCompletionPasses = 2;  // of completeAroundLiveCorners after the search
 constexpr int kMaxSplitDepth = 6;     // see processStep
+constexpr long kMaxRegionCells = 128;  // across PupilMesh::region (see meshCells)
 
 // Lattice keys to indices: open addressing with linear probing, faster than std::unordered_map
 // for the mesher's many small lookups (the 4 × 4 blocks around each cell judged).
@@ -98,10 +99,12 @@ public:
             resolve(k, last ? o_.minLivePoints : o_.minPassingPoints, last ? o_.minCellsAcross : 0);
         }
         mesh.tracedRays = static_cast<long>(samples_.size());
+        mesh.resolved = !truncated_;
         if (active_.empty()) return mesh;
         completeAroundLiveCorners(kCompletionPasses);
         meshCells(&mesh);
         mesh.tracedRays = static_cast<long>(samples_.size());
+        mesh.resolved = !truncated_;
         return mesh;
     }
 
@@ -116,17 +119,19 @@ public:
             const int shift = std::min(options.minLevel, o_.maxLevel) - leaf.level;
             for (long dj = 0; dj < (1L << shift); ++dj)
                 for (long di = 0; di < (1L << shift); ++di)
-                    addCell(leaf.level + shift, (leaf.i << shift) + di, (leaf.j << shift) + dj);
+                    if (budgetLeft()) addCell(leaf.level + shift, (leaf.i << shift) + di, (leaf.j << shift) + dj);
         }
         bringTo(cornersOf(active_), steps_ - 1);
         dropDead();
         // At this wavelength the region has moved a little: follow it through live corners.
         completeAroundLiveCorners(options.maxGrowth);
         mesh.tracedRays = static_cast<long>(samples_.size());
+        mesh.resolved = !truncated_;
         if (active_.empty()) return mesh;
         o_.bisections = options.bisections;
         meshCells(&mesh);
         mesh.tracedRays = static_cast<long>(samples_.size());
+        mesh.resolved = !truncated_;
         return mesh;
     }
 
@@ -245,7 +250,7 @@ private:
                     const long ci = c.i + kCorner[k][0], cj = c.j + kCorner[k][1];  // the corner
                     for (long dj = -1; dj <= 0; ++dj)
                         for (long di = -1; di <= 0; ++di)
-                            if (!covered(c.level, ci + di, cj + dj)) addCell(c.level, ci + di, cj + dj);
+                            if (!covered(c.level, ci + di, cj + dj) && budgetLeft()) addCell(c.level, ci + di, cj + dj);
                 }
             if (active_.size() == before) break;
             std::vector<Cell> added(active_.begin() + static_cast<std::ptrdiff_t>(before), active_.end());
@@ -490,7 +495,14 @@ private:
         return children;
     }
 
-    bool budgetLeft() const { return static_cast<long>(samples_.size()) < o_.maxRays; }
+    // Whether refinement may start more rays (PupilMeshOptions::maxRays). Asked before each split,
+    // so that the rays started stay within the budget plus one cell's; a refinement refused for
+    // want of budget marks the mesh unresolved.
+    bool budgetLeft() {
+        if (static_cast<long>(samples_.size()) < o_.maxRays) return true;
+        truncated_ = true;
+        return false;
+    }
 
     // After event `step`: cells with a surviving corner stay; the others are split where the
     // event's margin allows survivors inside, else dropped.
@@ -520,7 +532,7 @@ private:
                     active_.push_back(c);
                     continue;
                 }
-                if (c.level < deepest && budgetLeft() && possiblyLive(c, step)) {
+                if (c.level < deepest && possiblyLive(c, step) && budgetLeft()) {
                     std::vector<Cell> children = split(c);
                     next.insert(next.end(), children.begin(), children.end());
                 }
@@ -533,7 +545,7 @@ private:
     // Splits the coarsest cells until the surviving rays number at least `points` and span at
     // least `across` cells of the coarsest level.
     void resolve(int step, int points, int across) {
-        while (!active_.empty() && budgetLeft()) {
+        while (!active_.empty()) {
             int survivors = 0;
             glm::dvec2 lo(1e300), hi(-1e300);
             int coarsest = o_.maxLevel;
@@ -550,7 +562,7 @@ private:
                     }
             }
             const double spanCells = survivors == 0 ? 0.0 : std::max(hi.x - lo.x, hi.y - lo.y) / cellMm(coarsest);
-            if ((survivors >= points && spanCells >= across - 1e-9) || coarsest >= o_.maxLevel)
+            if ((survivors >= points && spanCells >= across - 1e-9) || coarsest >= o_.maxLevel || !budgetLeft())
                 return;
             std::vector<Cell> kept, children;
             for (const Cell& c : active_) {
@@ -614,6 +626,12 @@ private:
             for (size_t q = 0; q < crossings.size(); ++q) {
                 Crossing& c = crossings[q];
                 if (done[q]) continue;
+                // Probes may add as many rays as the refinement had; beyond, vertices stay where
+                // the margins or the bisection last put them.
+                if (static_cast<long>(samples_.size()) >= 2 * o_.maxRays) {
+                    truncated_ = true;
+                    break;
+                }
                 const double width = c.tHi - c.tLo;
                 const double t = c.bisect ? 0.5 * (c.tLo + c.tHi)
                                           : std::max(c.tLo + 0.5 * (c.estimate - c.tLo), c.estimate - 0.02 * width);
@@ -726,7 +744,7 @@ private:
             std::vector<Cell> kept, children;
             for (size_t n = 0; n < active_.size(); ++n) {
                 const Cell& c = active_[n];
-                if (cellError[n] > share && c.level < o_.maxLevel) {
+                if (cellError[n] > share && c.level < o_.maxLevel && budgetLeft()) {
                     std::vector<Cell> four = split(c);
                     children.insert(children.end(), four.begin(), four.end());
                 } else {
@@ -815,7 +833,7 @@ private:
         std::vector<Cell> kept, children;
         for (size_t n = 0; n < active_.size(); ++n) {
             const Cell& c = active_[n];
-            if (bulge[n] > share && c.level < o_.maxLevel) {
+            if (bulge[n] > share && c.level < o_.maxLevel && budgetLeft()) {
                 std::vector<Cell> four = split(c);
                 children.insert(children.end(), four.begin(), four.end());
             } else {
@@ -918,17 +936,26 @@ private:
             fan(polygon);
         }
 
-        // The region, on the coarsest level's lattice: every cell covering an active cell.
-        int coarsest = kKeyLevels;
-        for (const Cell& c : active_) coarsest = std::min(coarsest, c.level);
-        std::vector<std::pair<long, long>> cells;
-        for (const Cell& c : active_) cells.emplace_back(c.i >> (c.level - coarsest), c.j >> (c.level - coarsest));
-        long iMin = cells[0].first, iMax = iMin, jMin = cells[0].second, jMax = jMin;
-        for (const auto& [i, j] : cells) {
-            iMin = std::min(iMin, i), iMax = std::max(iMax, i);
-            jMin = std::min(jMin, j), jMax = std::max(jMax, j);
+        // The region, on the lattice of the coarsest level among the cells, coarser still where
+        // its bounding box would span more than kMaxRegionCells of them: a region made only of
+        // fine cells (thin or scattered pieces the search refined to the deepest level) can lie
+        // anywhere in the window, and at the finest level the window is 16 · 2¹² cells across, a
+        // bitmap of gigabytes. A coarser cell covering fine live cells still covers the region;
+        // its users (the guide mask) only re-trace the cells, which then stay few.
+        int level = kKeyLevels;
+        for (const Cell& c : active_) level = std::min(level, c.level);
+        long iMin = 0, iMax = 0, jMin = 0, jMax = 0;
+        for (;; --level) {
+            iMin = jMin = std::numeric_limits<long>::max();
+            iMax = jMax = std::numeric_limits<long>::min();
+            for (const Cell& c : active_) {
+                const long i = c.i >> (c.level - level), j = c.j >> (c.level - level);
+                iMin = std::min(iMin, i), iMax = std::max(iMax, i);
+                jMin = std::min(jMin, j), jMax = std::max(jMax, j);
+            }
+            if (std::max(iMax - iMin, jMax - jMin) < kMaxRegionCells || level == 0) break;
         }
-        const double h = cellMm(coarsest);
+        const double h = cellMm(level);
         LivePupilRegion& region = mesh->region;
         region.cellMm = h;
         region.aMinMm = o_.windowMinMm.x + static_cast<double>(iMin) * h;
@@ -936,9 +963,11 @@ private:
         region.cellsA = static_cast<int>(iMax - iMin + 1);
         region.cellsB = static_cast<int>(jMax - jMin + 1);
         region.live.assign(static_cast<size_t>(region.cellsA) * region.cellsB, 0);
-        for (const auto& [i, j] : cells)
+        for (const Cell& c : active_) {
+            const long i = c.i >> (c.level - level), j = c.j >> (c.level - level);
             region.live[static_cast<size_t>(j - jMin) * region.cellsA + static_cast<size_t>(i - iMin)] = 1;
-        mesh->level = coarsest;
+        }
+        mesh->level = level;
     }
 
     const BundleTracer& weighted_;
@@ -949,6 +978,7 @@ private:
     const LensSystem& lens_;
     bool search_ = true;
     int tracerSteps_ = 0, steps_ = 0;
+    bool truncated_ = false;  // a refinement was refused for want of budget (PupilMesh::resolved)
     KeyIndex index_;
     KeyIndex leaves_, holders_;  // for covered()
     std::vector<Sample> samples_;
@@ -978,6 +1008,7 @@ PupilMesh remeshLiveRegion(const BundleTracer& tracer, const PupilGrid& grid, co
     o.bisections = options.bisections;
     o.interiorTolerance = options.interiorTolerance;
     o.boundaryTolerance = options.boundaryTolerance;
+    o.maxRays = options.maxRays;
     return Mesher(tracer, grid, o, false).remesh(lattice, options);
 }
 

@@ -25,6 +25,9 @@
 // polygons' area is then exact to second order in the cell size, where counting live cell
 // centres (the midpoint rule) is only first-order accurate along the edge.
 //
+// Budget: every refinement stops at PupilMeshOptions::maxRays rays started (a region folded along
+// many events would otherwise be refined without end), and the mesh reports that it is unresolved.
+//
 // Known limit: a region that is a thin ring along a fold of the path (rays meeting a surface at a
 // stationary height), narrower than the lattice around it, can be found only in part.
 #pragma once
@@ -49,7 +52,10 @@ struct PupilMeshOptions {
     bool requireOnSensor = true;  // live = lands inside the sensor rectangle (the analysis)
     double slopeSafety = 1.5;  // on the margin models' allowances when dropping cells
     int bisections = 6;        // where no margin can place an edge vertex
-    long maxRays = 400000;     // stop refining beyond this (a safeguard; not reached in practice)
+    // The work and memory per path (see kMaxRaysPerPath): refinement of every kind stops once
+    // this many rays have been started, and the mesh is built from the cells found so far
+    // (PupilMesh::resolved = false). Locating the edge may start as many again (see locate).
+    long maxRays = kMaxRaysPerPath;
     // Cells are split where the estimated error of the interior integration (linear interpolation
     // of the throughput) exceeds this fraction of the region's power in all.
     double interiorTolerance = 0.002;
@@ -73,11 +79,16 @@ struct PupilTriangle {
 
 struct PupilMesh {
     std::vector<PupilTriangle> triangles;
-    // The cells (of the coarsest final lattice level, cellMm) covering the cells with live corners.
+    // The cells covering the cells with live corners: of the coarsest final lattice level, or
+    // coarser where the region's bounding box would span more than 128 of them (so that a region
+    // of scattered fine cells does not make a bitmap of gigabytes).
     LivePupilRegion region;
     PupilLattice lattice;  // the cells holding live rays, before the refinements for accuracy
     int level = 0;             // of region's cells
     long tracedRays = 0;       // rays started (most end early)
+    // False when the ray budget (maxRays) ran out while cells were still to be split: the region
+    // may then be found only in part, and the power's error may exceed the tolerances.
+    bool resolved = true;
 
     bool empty() const { return triangles.empty(); }
 };
@@ -91,6 +102,7 @@ struct PupilRemeshOptions {
     int bisections = 6;
     double interiorTolerance = 0.002;  // as PupilMeshOptions
     double boundaryTolerance = 0.002;
+    long maxRays = kMaxRaysPerPath;
 };
 
 // The live region meshed on the cells of an earlier search (another wavelength, a finer level),

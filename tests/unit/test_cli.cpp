@@ -82,6 +82,7 @@ TEST(Cli, GhostsJsonHasTheDocumentedKeys) {
         EXPECT_EQ(g["surfaces"].size(), 2u);
         EXPECT_TRUE(g["footprint_mm"].contains("x_min"));
         EXPECT_TRUE(g["pruned"].is_boolean());
+        EXPECT_TRUE(g["resolved"].get<bool>());  // a shipped lens never exhausts the ray budget
         EXPECT_LE(g["power_fraction"].get<double>(), previous);  // sorted by power
         previous = g["power_fraction"].get<double>();
     }

@@ -180,6 +180,9 @@ TEST(GhostAnalysis, DoubleGaussReportIsDeterministicAndConsistent) {
         EXPECT_EQ(a.ghosts[i].path, b.ghosts[i].path);
         EXPECT_EQ(a.ghosts[i].powerFraction, b.ghosts[i].powerFraction);
         if (i > 0) EXPECT_LE(a.ghosts[i].powerFraction, a.ghosts[i - 1].powerFraction);
+        // A shipped lens is resolved well within the ray budget (kMaxRaysPerPath).
+        EXPECT_TRUE(a.ghosts[i].resolved) << a.ghosts[i].path.label();
+        EXPECT_LT(a.ghosts[i].tracedRays, kMaxRaysPerPath / 4) << a.ghosts[i].path.label();
     }
     // With single-layer MgF2 (about 1.3 % per surface), no ghost can carry more than a few 1e-4.
     EXPECT_GT(a.ghosts.front().powerFraction, 1e-6);
@@ -236,6 +239,48 @@ TEST(GhostAnalysis, FindsEveryLiveRegionADenseScanFinds) {
     }
     EXPECT_GT(live, 300);
     EXPECT_GE(static_cast<double>(covered), 0.99 * static_cast<double>(scanned));
+}
+
+// Two random lenses of the long stress run (tests/stress), axial light, on which the analysis ran
+// out of memory or time. Each test takes one path of it, a fraction of a second.
+GhostEstimate estimateOnePath(const std::string& lensFile, const std::string& label) {
+    const LensSystem lens = loadLens(lensFile);
+    const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(0.0, 0.0));
+    const GhostAnalysisOptions options;
+    for (const GhostPath& path : enumerateGhosts(lens, options.order, true))
+        if (path.label() == label)
+            return estimatePath(lens, lens.indicesAt(options.wavelengthNm), grid, grid.enteringAreaMm2(lens, 512), path,
+                                options);
+    ADD_FAILURE() << "no path " << label;
+    return {};
+}
+
+// Lens 529: this path's live region is a few cells of the finest level (2¹² times finer than the
+// first) scattered over the whole window. Its bitmap was kept at the finest level, ~61 000 cells
+// across: 3.7 GB, then std::bad_alloc (and the guide mask would have traced every cell). The
+// bitmap is now coarsened to at most 128 cells across, and still covers the live cells.
+TEST(GhostAnalysis, RegionOfScatteredFineCellsStaysSmall) {
+    const GhostEstimate g = estimateOnePath("tests/data/stress-seed1-lens529.lens", "ghost_03_01");
+    ASSERT_FALSE(g.pupil.empty());
+    EXPECT_LE(g.pupil.cellsA, 128);
+    EXPECT_LE(g.pupil.cellsB, 128);
+    EXPECT_GT(g.pupil.liveCount(), 0);
+    EXPECT_LE(g.tracedRays, 2 * kMaxRaysPerPath);
+}
+
+// Lens 881 (strong aspheres, 52 events): the regions fold along many events, and the search split
+// cells along every fold down to the finest level: up to 520 000 rays for a path, half of them more
+// than 58 000 (`flare ghosts` took 41 s and 560 MB). The ray budget stops it; the estimate is
+// reported, flagged as not resolved, and stays finite.
+TEST(GhostAnalysis, RayBudgetBoundsAFoldedRegion) {
+    const GhostEstimate g = estimateOnePath("tests/data/stress-seed1-lens881.lens", "ghost_18_13");
+    EXPECT_FALSE(g.resolved);
+    EXPECT_GE(g.tracedRays, kMaxRaysPerPath);
+    EXPECT_LE(g.tracedRays, 2 * kMaxRaysPerPath);  // the refinement's budget, and as many probes
+    EXPECT_TRUE(std::isfinite(g.powerFraction));
+    EXPECT_GE(g.powerFraction, 0.0);
+    EXPECT_LE(g.pupil.cellsA, 128);
+    EXPECT_LE(g.pupil.cellsB, 128);
 }
 
 }  // namespace
