@@ -288,7 +288,7 @@ PreviewImage renderPreview(const LensSystem& lens, const PreviewLight& light, co
             Job& job = jobs[k * lambdas + w];
             job.estimate = k == kept.size() ? &report.direct : kept[k];
             job.wavelength = w;
-            job.importance = k == kept.size() ? 1.0 : job.estimate->powerFraction / strongest;
+            job.importance = k == kept.size() || !(strongest > 0.0) ? 1.0 : job.estimate->powerFraction / strongest;
             const int steps = static_cast<int>(job.estimate->path.reflections.size() + 1) * lens.surfaceCount();
             job.cost = estimatedRays(job.estimate->lattice, 0) * steps;
         }

@@ -126,8 +126,12 @@ void applySceneScattering(const Scene& scene, const LensSystem& lens, RenderOpti
         return std::make_shared<const CoverageMask>(std::move(mask));
     };
     options.contamination.clear();
-    const bool lensDirt = static_cast<int>(prescription.rows.size()) == n &&
-                          std::any_of(prescription.rows.begin(), prescription.rows.end(),
+    // The same file built `lens`, so its rows are the lens's surfaces; anything else is a bug
+    // (say, a scene whose lens changed between the two reads), not something to skip silently.
+    if (!scene.lens.empty() && static_cast<int>(prescription.rows.size()) != n)
+        throw std::logic_error("applySceneScattering: " + scene.lens + " has " + std::to_string(prescription.rows.size()) +
+                               " surfaces, the lens built from it " + std::to_string(n));
+    const bool lensDirt = std::any_of(prescription.rows.begin(), prescription.rows.end(),
                                       [](const PrescriptionRow& row) { return row.dust || row.grease; });
     if (!s.dust.empty() || !s.grease.empty() || lensDirt) options.contamination.assign(n, SurfaceContamination{});
     // The lens file's dust and grease first (its parser checked the surfaces), then the scene's,

@@ -402,10 +402,15 @@ double VolumeGrid::Sampler::densityAt(const glm::dvec3& pMm) {
           pMm.z <= s.hi.z))
         return 0.0;
     const glm::dvec3 q = s.worldToIndex * pMm + s.offset;
-    // Nearest voxel centre (box sampling): the value is constant over each voxel.
-    const openvdb::Coord ijk(std::clamp(static_cast<openvdb::Int32>(std::floor(q.x + 0.5)), s.clampLo.x(), s.clampHi.x()),
-                             std::clamp(static_cast<openvdb::Int32>(std::floor(q.y + 0.5)), s.clampLo.y(), s.clampHi.y()),
-                             std::clamp(static_cast<openvdb::Int32>(std::floor(q.z + 0.5)), s.clampLo.z(), s.clampHi.z()));
+    // Nearest voxel centre (box sampling): the value is constant over each voxel. Clamped before
+    // the conversion to int: a file's transform can map a point inside the bounds to an index far
+    // outside int's range (found by tests/fuzz's vdb target), and NaN goes to the low end.
+    const auto nearest = [](double v, openvdb::Int32 lo, openvdb::Int32 hi) {
+        const double r = std::floor(v + 0.5);
+        return r >= lo ? (r <= hi ? static_cast<openvdb::Int32>(r) : hi) : lo;
+    };
+    const openvdb::Coord ijk(nearest(q.x, s.clampLo.x(), s.clampHi.x()), nearest(q.y, s.clampLo.y(), s.clampHi.y()),
+                             nearest(q.z, s.clampLo.z(), s.clampHi.z()));
     float value = 0.0f;
     return s.accessor.probeValue(ijk, value) ? static_cast<double>(value) : 0.0;
 }

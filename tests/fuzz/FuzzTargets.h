@@ -24,11 +24,16 @@ void exrInput(std::string_view data);
 // Renderer::loadCheckpoint on the bytes (a small fixed render of the double Gauss), and
 // Film::load of a film of that render's settings when the bytes are a bare film.
 void checkpointInput(std::string_view data);
+// VolumeGrid::load (the loader of `flare volume info` and of scenes' volumes) on the bytes written
+// to a temporary .vdb file; a grid that loads has its bounds, statistics, active boxes and a few
+// densities read.
+void vdbInput(std::string_view data);
 
 // Writes seed inputs that cannot be copied from the source tree: small EXRs (float and half,
-// scanline and tiled, several compressions, layers) and a checkpoint and a bare film of the
-// render checkpointInput uses. Returns the number of files written under dir/exr and
-// dir/checkpoint.
+// scanline and tiled, several compressions, layers), a checkpoint and a bare film of the render
+// checkpointInput uses, and small .vdb files (float grids as flare writes them, compressed and
+// not, and the grids load() rejects). Returns the number of files written under dir/exr,
+// dir/checkpoint and dir/vdb.
 int writeGeneratedSeeds(const std::string& dir);
 
 }  // namespace flare::fuzz

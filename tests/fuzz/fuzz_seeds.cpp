@@ -1,5 +1,6 @@
 // flare_fuzz_seeds DIR: writes the generated part of the seed corpus (small EXRs, a checkpoint and
-// a bare film of the checkpoint target's render) under DIR/exr and DIR/checkpoint.
+// a bare film of the checkpoint target's render, small .vdb files) under DIR/exr, DIR/checkpoint
+// and DIR/vdb.
 #include <cstdio>
 #include <exception>
 

@@ -3,10 +3,12 @@
 #pragma once
 
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -14,6 +16,14 @@
 #include "flare/LensSystem.h"
 
 namespace flare::test {
+
+// A scratch directory of this test process: ctest runs tests in parallel, one process each, and
+// tests that share a helper writing fixed file names must not overwrite each other's files.
+inline std::filesystem::path processTempDir(const std::string& name) {
+    const auto dir = std::filesystem::temp_directory_path() / (name + "-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    return dir;
+}
 
 inline std::string sourcePath(const std::string& relative) {
     return std::string(FLARE_SOURCE_DIR) + "/" + relative;

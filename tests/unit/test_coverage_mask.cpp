@@ -34,7 +34,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path testDir() {
-    const fs::path dir = fs::temp_directory_path() / "flare_coverage_mask_test";
+    const fs::path dir = test::processTempDir("flare_coverage_mask_test");
     fs::create_directories(dir);
     return dir;
 }

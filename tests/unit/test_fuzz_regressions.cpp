@@ -61,6 +61,7 @@ const std::pair<const char*, Body> kTargets[] = {
     {"scene", fuzz::sceneInput},
     {"exr", fuzz::exrInput},
     {"checkpoint", fuzz::checkpointInput},
+    {"vdb", fuzz::vdbInput},
 };
 
 TEST(FuzzRegressions, EveryKeptInputReplaysCleanly) {
@@ -74,11 +75,13 @@ TEST(FuzzRegressions, SeedCorpusRunsThroughTheTargets) {
     EXPECT_GE(replayAll(filesIn(test::sourcePath("docs/examples"), ".json"), fuzz::sceneInput), 3);
     EXPECT_GE(replayAll(filesIn(test::sourcePath("tests/data/scenes"), ".json"), fuzz::sceneInput), 1);
 
-    const fs::path dir = fs::temp_directory_path() / "flare_fuzz_seeds_test";
+    const fs::path dir = test::processTempDir("flare_fuzz_seeds_test");
     fs::remove_all(dir);
     EXPECT_GT(fuzz::writeGeneratedSeeds(dir.string()), 0);
     EXPECT_GE(replayAll(filesIn(dir / "exr"), fuzz::exrInput), 8);
     EXPECT_EQ(replayAll(filesIn(dir / "checkpoint"), fuzz::checkpointInput), 2);
+    EXPECT_GE(replayAll(filesIn(dir / "vdb"), fuzz::vdbInput), 10);
+    EXPECT_GE(replayAll(filesIn(test::sourcePath("volumes"), ".vdb"), fuzz::vdbInput), 4);
     fs::remove_all(dir);
 }
 

@@ -11,6 +11,7 @@
 #include "flare/LensFile.h"
 #include "flare/Render.h"
 #include "flare/Scene.h"
+#include "TestUtil.h"
 
 namespace flare {
 namespace {
@@ -116,7 +117,7 @@ surfaces
 // A scene on dirty.lens (kDirtyDoublet) or clean.lens (the same without scattering), with the
 // given scattering block ("" = none).
 Scene sceneWith(const std::string& lensFile, const std::string& scattering) {
-    const fs::path dir = fs::temp_directory_path() / "flare_lens_scattering_test";
+    const fs::path dir = test::processTempDir("flare_lens_scattering_test");
     fs::create_directories(dir);
     std::ofstream(dir / "dirty.lens") << kDirtyDoublet;
     std::ofstream(dir / "clean.lens") << R"(name clean doublet

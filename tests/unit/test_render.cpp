@@ -23,7 +23,7 @@ namespace flare {
 namespace {
 
 std::string writeTemp(const std::string& name, const std::string& text) {
-    const auto dir = std::filesystem::temp_directory_path() / "flare_render_test";
+    const auto dir = test::processTempDir("flare_render_test");
     std::filesystem::create_directories(dir);
     const auto path = dir / name;
     std::ofstream(path) << text;

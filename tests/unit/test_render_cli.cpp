@@ -21,7 +21,7 @@ using test::CliRun;
 CliRun run(const std::string& arguments) { return test::runCli(arguments); }
 
 std::string tempPath(const std::string& name) {
-    const auto dir = std::filesystem::temp_directory_path() / "flare_render_cli";
+    const auto dir = test::processTempDir("flare_render_cli");
     std::filesystem::create_directories(dir);
     std::filesystem::remove(dir / name);
     return (dir / name).string();

@@ -177,7 +177,7 @@ TEST(Scattering, NothingAbsorbingMeansEveryPhotonEscapesOrReachesTheSensor) {
 }
 
 Scene doubletScene(const std::string& scattering) {
-    const auto dir = std::filesystem::temp_directory_path() / "flare_scattering_test";
+    const auto dir = test::processTempDir("flare_scattering_test");
     std::filesystem::create_directories(dir);
     std::ofstream(dir / "doublet.lens") << test::kUncoatedDoublet;
     const std::string text = R"({ "lens": ")" + (dir / "doublet.lens").string() + R"(",

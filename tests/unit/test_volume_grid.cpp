@@ -449,6 +449,21 @@ TEST_F(VolumeGridTest, DensityIsConstantOverEachVoxelAndNeverAboveTheMajorant) {
     }
 }
 
+// A fuzzed file whose transform maps points inside the grid's bounds to index coordinates far
+// beyond int's range: lookups are clamped before the conversion to int (undefined behaviour before,
+// reported by UBSan in the vdb fuzz target), and stay within the majorant.
+TEST_F(VolumeGridTest, LookupsOfAGridWithAnExtremeTransformStayBounded) {
+    const VolumeGrid grid = VolumeGrid::load(test::sourcePath("tests/data/fuzz/vdb/transform-maps-bounds-outside-int-range.vdb"));
+    VolumeGrid::Sampler s = grid.sampler();
+    Rng rng(3, 4);
+    for (int n = 0; n < 1000; ++n) {
+        const double d = s.densityAt(randomPoint(rng, grid.boundsMinMm(), grid.boundsMaxMm()));
+        ASSERT_GE(d, 0.0);
+        ASSERT_LE(d, grid.maxValue());
+    }
+    EXPECT_GE(s.densityAt(0.5 * (grid.boundsMinMm() + grid.boundsMaxMm())), 0.0);
+}
+
 TEST_F(VolumeGridTest, SamplersOnManyThreadsAgreeWithOneThread) {
     const VolumeGrid grid = makeVolume(smallElement(VolumeMakeOptions::Kind::Striae));
     constexpr int kPoints = 100000;
