@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <mutex>
 #include <optional>
@@ -16,6 +17,7 @@
 #include <glm/mat3x3.hpp>
 #include <openvdb/openvdb.h>
 #include <openvdb/io/File.h>
+#include <openvdb/io/Stream.h>
 #include <openvdb/tree/ValueAccessor.h>
 
 #include "flare/Error.h"
@@ -242,10 +244,15 @@ VolumeGrid VolumeGrid::load(const std::string& path, const std::string& gridName
 
     auto impl = std::make_shared<Impl>();
     try {
-        openvdb::io::File file(path);
-        file.open(false);
-        const openvdb::GridBase::Ptr base = file.readGrid(chosen);
-        file.close();
+        // Read through a stream that throws on a short read: OpenVDB's tree readers do not check
+        // the stream, so a file that declares more tiles or nodes than it holds would have them
+        // loop on a failed stream (found by fuzzing: billions of declared root tiles, a hang).
+        std::ifstream in(path, std::ios::binary);
+        in.exceptions(std::ios::failbit | std::ios::badbit);
+        openvdb::io::Stream stream(in, /*delayLoad=*/false);
+        openvdb::GridBase::Ptr base;
+        for (const openvdb::GridBase::Ptr& g : *stream.getGrids())
+            if (g && !base && g->getName() == chosen) base = g;  // the first of that name, as readGrid
         openvdb::FloatGrid::Ptr grid = openvdb::gridPtrCast<openvdb::FloatGrid>(base);
         if (!grid)
             throw InputError(path, 0, "grid \"" + chosen + "\" has the tree type " + (base ? base->type() : std::string("?")) +
