@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Verify the built-in glass catalogue (src/flare/GlassCatalogData.inc).
+"""Verify the built-in glass catalogue (src/flare/optics/GlassCatalogData.inc).
 
 For every row the dispersion formula is evaluated at the Fraunhofer d, F and C
 lines and the resulting nd and Abbe number Vd = (nd - 1) / (nF - nC) are
@@ -116,7 +116,7 @@ def main(argv):
         path = argv[1]
     else:
         here = os.path.dirname(os.path.abspath(__file__))
-        path = os.path.join(here, os.pardir, "src", "flare", "GlassCatalogData.inc")
+        path = os.path.join(here, os.pardir, "src", "flare", "optics", "GlassCatalogData.inc")
     path = os.path.normpath(path)
 
     rows, errors = parse(path)

@@ -9,9 +9,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "flare/Error.h"
-#include "flare/ImageCompare.h"
-#include "flare/ImageIO.h"
+#include "flare/core/Error.h"
+#include "flare/film/ImageCompare.h"
+#include "flare/film/ImageIO.h"
 
 namespace flare::cli {
 

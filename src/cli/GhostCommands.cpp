@@ -12,10 +12,10 @@
 #include <nlohmann/json.hpp>
 
 #include "LensOptions.h"
-#include "flare/Error.h"
-#include "flare/GhostAnalysis.h"
-#include "flare/LensSystem.h"
-#include "flare/Scene.h"
+#include "flare/core/Error.h"
+#include "flare/ghosts/GhostAnalysis.h"
+#include "flare/optics/LensSystem.h"
+#include "flare/scene/Scene.h"
 
 namespace flare::cli {
 

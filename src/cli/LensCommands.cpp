@@ -13,13 +13,13 @@
 #include "Output.h"
 #include <algorithm>
 
-#include "flare/Error.h"
-#include "flare/Ghosts.h"
-#include "flare/LensDrawing.h"
-#include "flare/LensFile.h"
-#include "flare/LensSystem.h"
-#include "flare/Paraxial.h"
-#include "flare/RealRays.h"
+#include "flare/core/Error.h"
+#include "flare/ghosts/Ghosts.h"
+#include "flare/optics/LensDrawing.h"
+#include "flare/optics/LensFile.h"
+#include "flare/optics/LensSystem.h"
+#include "flare/optics/Paraxial.h"
+#include "flare/optics/RealRays.h"
 
 namespace flare::cli {
 

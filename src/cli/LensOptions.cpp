@@ -1,6 +1,6 @@
 #include "LensOptions.h"
 
-#include "flare/LensFile.h"
+#include "flare/optics/LensFile.h"
 
 namespace flare::cli {
 

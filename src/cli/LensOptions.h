@@ -7,7 +7,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "flare/LensSystem.h"
+#include "flare/optics/LensSystem.h"
 
 namespace flare::cli {
 

@@ -14,11 +14,11 @@
 #include <tbb/global_control.h>
 
 #include "Output.h"
-#include "flare/Error.h"
-#include "flare/ImageIO.h"
-#include "flare/Render.h"
-#include "flare/Scene.h"
-#include "flare/Spectrum.h"
+#include "flare/core/Error.h"
+#include "flare/film/ImageIO.h"
+#include "flare/render/Render.h"
+#include "flare/scene/Scene.h"
+#include "flare/core/Spectrum.h"
 
 namespace flare::cli {
 

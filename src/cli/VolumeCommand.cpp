@@ -10,8 +10,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "flare/VolumeGrid.h"
-#include "flare/VolumeMake.h"
+#include "flare/photons/VolumeGrid.h"
+#include "flare/photons/VolumeMake.h"
 
 namespace flare::cli {
 

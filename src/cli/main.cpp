@@ -11,7 +11,7 @@
 #include "PreviewCommand.h"
 #include "RenderCommand.h"
 #include "VolumeCommand.h"
-#include "flare/Error.h"
+#include "flare/core/Error.h"
 
 int main(int argc, char** argv) {
     CLI::App app{"flare: physically based lens flare simulation"};

@@ -3,9 +3,9 @@
 // with the sensor, 351 without).
 #include <benchmark/benchmark.h>
 
-#include "flare/LensFile.h"
-#include "flare/Preview.h"
-#include "flare/PupilGrid.h"
+#include "flare/optics/LensFile.h"
+#include "flare/ghosts/Preview.h"
+#include "flare/optics/PupilGrid.h"
 
 namespace {
 

@@ -7,8 +7,8 @@
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
-#include "flare/Render.h"
-#include "flare/VolumeGrid.h"
+#include "flare/render/Render.h"
+#include "flare/photons/VolumeGrid.h"
 
 namespace {
 

@@ -12,12 +12,12 @@
 #include <glm/geometric.hpp>
 #include <tbb/global_control.h>
 
-#include "flare/LensFile.h"
-#include "flare/Preview.h"
-#include "flare/PupilGrid.h"
-#include "flare/RealRays.h"
-#include "flare/Render.h"
-#include "flare/SequentialTracer.h"
+#include "flare/optics/LensFile.h"
+#include "flare/ghosts/Preview.h"
+#include "flare/optics/PupilGrid.h"
+#include "flare/optics/RealRays.h"
+#include "flare/render/Render.h"
+#include "flare/optics/SequentialTracer.h"
 
 namespace {
 

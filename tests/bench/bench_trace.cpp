@@ -10,10 +10,10 @@
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
-#include "flare/LensFile.h"
-#include "flare/LensSystem.h"
-#include "flare/RealRays.h"
-#include "flare/SequentialTracer.h"
+#include "flare/optics/LensFile.h"
+#include "flare/optics/LensSystem.h"
+#include "flare/optics/RealRays.h"
+#include "flare/optics/SequentialTracer.h"
 
 namespace {
 

@@ -61,11 +61,11 @@
 
 #include <CLI/CLI.hpp>
 
-#include "flare/ImageCompare.h"
-#include "flare/ImageIO.h"
-#include "flare/Preview.h"
-#include "flare/Render.h"
-#include "flare/Spectrum.h"
+#include "flare/film/ImageCompare.h"
+#include "flare/film/ImageIO.h"
+#include "flare/ghosts/Preview.h"
+#include "flare/render/Render.h"
+#include "flare/core/Spectrum.h"
 
 using namespace flare;
 

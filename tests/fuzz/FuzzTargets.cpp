@@ -34,17 +34,17 @@
 #include <sanitizer/lsan_interface.h>
 #endif
 
-#include "flare/Error.h"
-#include "flare/Film.h"
-#include "flare/ImageIO.h"
-#include "flare/LensFile.h"
-#include "flare/Paraxial.h"
-#include "flare/PhotonTracer.h"
-#include "flare/Random.h"
-#include "flare/Render.h"
-#include "flare/Scene.h"
-#include "flare/SequentialTracer.h"
-#include "flare/VolumeGrid.h"
+#include "flare/core/Error.h"
+#include "flare/film/Film.h"
+#include "flare/film/ImageIO.h"
+#include "flare/optics/LensFile.h"
+#include "flare/optics/Paraxial.h"
+#include "flare/photons/PhotonTracer.h"
+#include "flare/core/Random.h"
+#include "flare/render/Render.h"
+#include "flare/scene/Scene.h"
+#include "flare/optics/SequentialTracer.h"
+#include "flare/photons/VolumeGrid.h"
 
 namespace flare::fuzz {
 

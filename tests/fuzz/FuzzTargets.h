@@ -1,6 +1,6 @@
 // Bodies of the libFuzzer targets (tests/fuzz/fuzz_*.cpp), kept apart from the entry points so
 // that the default test suite can replay every input kept under tests/data/fuzz/ through exactly
-// the code the fuzzer ran (tests/unit/test_fuzz_regressions.cpp).
+// the code the fuzzer ran (tests/unit/fuzz/test_fuzz_regressions.cpp).
 //
 // Each body feeds one input to an engine reader and swallows the error the reader documents for
 // bad input (InputError; std::runtime_error for Film::load). Anything else escapes: an exception

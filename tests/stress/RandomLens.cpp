@@ -6,7 +6,7 @@
 #include <optional>
 #include <vector>
 
-#include "flare/Surface.h"
+#include "flare/optics/Surface.h"
 
 namespace flare::stress {
 

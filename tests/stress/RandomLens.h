@@ -11,7 +11,7 @@
 #include <cstdint>
 #include <string>
 
-#include "flare/Random.h"
+#include "flare/core/Random.h"
 
 namespace flare::stress {
 

@@ -13,13 +13,13 @@
 #include <glm/geometric.hpp>
 
 #include "RandomLens.h"
-#include "flare/Error.h"
-#include "flare/LensFile.h"
-#include "flare/PhotonTracer.h"
-#include "flare/RealRays.h"
-#include "flare/Render.h"
-#include "flare/Scene.h"
-#include "flare/SequentialTracer.h"
+#include "flare/core/Error.h"
+#include "flare/optics/LensFile.h"
+#include "flare/photons/PhotonTracer.h"
+#include "flare/optics/RealRays.h"
+#include "flare/render/Render.h"
+#include "flare/scene/Scene.h"
+#include "flare/optics/SequentialTracer.h"
 
 namespace flare::stress {
 

@@ -4,7 +4,7 @@
 // and a list of failures, every failure with what is needed to reproduce it (the lens text, the
 // ray in hexadecimal floating point, the wavelength and the random stream).
 //
-// The same runners serve the short version in the default suite (tests/unit/test_stress.cpp,
+// The same runners serve the short version in the default suite (tests/stress/test_stress.cpp,
 // seconds) and the long one labelled `stress` (tests/stress/stress_main.cpp, minutes).
 #pragma once
 

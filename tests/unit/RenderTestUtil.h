@@ -8,8 +8,8 @@
 #include <gtest/gtest.h>
 
 #include "TestUtil.h"
-#include "flare/Render.h"
-#include "flare/Scene.h"
+#include "flare/render/Render.h"
+#include "flare/scene/Scene.h"
 
 namespace flare::test {
 

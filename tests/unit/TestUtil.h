@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "flare/LensFile.h"
-#include "flare/LensSystem.h"
+#include "flare/optics/LensFile.h"
+#include "flare/optics/LensSystem.h"
 
 namespace flare::test {
 

@@ -1,4 +1,4 @@
-#include "flare/Error.h"
+#include "flare/core/Error.h"
 
 namespace flare {
 

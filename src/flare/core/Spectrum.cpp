@@ -1,4 +1,4 @@
-#include "flare/Spectrum.h"
+#include "flare/core/Spectrum.h"
 
 #include <algorithm>
 #include <cassert>
@@ -12,7 +12,7 @@ namespace flare {
 
 namespace {
 
-#include "flare/Cie1931Data.inc"
+#include "flare/core/Cie1931Data.inc"
 
 // CIE standard illuminant D65, relative spectral power, 300–830 nm at 5 nm, 100 at 560 nm
 // (CIE 15:2004 Colorimetry, Table T.1; ISO 11664-2 / CIE S 014-2).

@@ -26,7 +26,7 @@ inline constexpr double kRec709BlueXy[2] = {0.15, 0.06};
 inline constexpr double kD65WhiteXy[2] = {0.3127, 0.3290};
 
 // CIE 1931 2° colour-matching functions (x̄, ȳ, z̄): the CIE's official 1 nm table (360–830 nm,
-// src/flare/Cie1931Data.inc), linearly interpolated between the 1 nm samples; zero outside.
+// src/flare/core/Cie1931Data.inc), linearly interpolated between the 1 nm samples; zero outside.
 glm::dvec3 cieXyzBar(double wavelengthNm);
 
 // Spectral radiance of a black body from Planck's law, W·sr⁻¹·m⁻²·nm⁻¹ (per nanometre of

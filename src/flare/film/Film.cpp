@@ -1,4 +1,4 @@
-#include "flare/Film.h"
+#include "flare/film/Film.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 #include <ostream>
 #include <stdexcept>
 
-#include "flare/Spectrum.h"
+#include "flare/core/Spectrum.h"
 
 namespace flare {
 

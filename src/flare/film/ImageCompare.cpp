@@ -1,11 +1,11 @@
-#include "flare/ImageCompare.h"
+#include "flare/film/ImageCompare.h"
 
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
-#include "flare/Error.h"
-#include "flare/Spectrum.h"
+#include "flare/core/Error.h"
+#include "flare/core/Spectrum.h"
 
 namespace flare {
 

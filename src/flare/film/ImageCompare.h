@@ -7,7 +7,7 @@
 #include <optional>
 #include <string>
 
-#include "flare/ImageIO.h"
+#include "flare/film/ImageIO.h"
 
 namespace flare {
 

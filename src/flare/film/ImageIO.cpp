@@ -1,4 +1,4 @@
-#include "flare/ImageIO.h"
+#include "flare/film/ImageIO.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -27,8 +27,8 @@
 #include <OpenEXR/ImfThreading.h>
 #include <png.h>
 
-#include "flare/Error.h"
-#include "flare/Spectrum.h"
+#include "flare/core/Error.h"
+#include "flare/core/Spectrum.h"
 
 namespace flare {
 

@@ -1,4 +1,4 @@
-#include "flare/GhostAnalysis.h"
+#include "flare/ghosts/GhostAnalysis.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,8 +9,8 @@
 #include <tbb/parallel_for.h>
 #include <tbb/partitioner.h>
 
-#include "flare/BundleTracer.h"
-#include "flare/PupilMesh.h"
+#include "flare/optics/BundleTracer.h"
+#include "flare/ghosts/PupilMesh.h"
 
 namespace flare {
 

@@ -10,8 +10,8 @@
 
 #include <glm/vec2.hpp>
 
-#include "flare/Ghosts.h"
-#include "flare/PupilGrid.h"
+#include "flare/ghosts/Ghosts.h"
+#include "flare/optics/PupilGrid.h"
 
 namespace flare {
 

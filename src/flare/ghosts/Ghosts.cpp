@@ -1,9 +1,9 @@
-#include "flare/Ghosts.h"
+#include "flare/ghosts/Ghosts.h"
 
 #include <cmath>
 #include <cstdio>
 
-#include "flare/Paraxial.h"
+#include "flare/optics/Paraxial.h"
 
 namespace flare {
 

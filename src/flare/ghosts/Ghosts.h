@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "flare/LensSystem.h"
+#include "flare/optics/LensSystem.h"
 
 namespace flare {
 

@@ -1,8 +1,8 @@
-#include "flare/GuideMask.h"
+#include "flare/ghosts/GuideMask.h"
 
 #include <cmath>
 
-#include "flare/SequentialTracer.h"
+#include "flare/optics/SequentialTracer.h"
 
 namespace flare {
 

@@ -11,7 +11,7 @@
 
 #include <glm/vec2.hpp>
 
-#include "flare/GhostAnalysis.h"
+#include "flare/ghosts/GhostAnalysis.h"
 
 namespace flare {
 

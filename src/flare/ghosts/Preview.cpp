@@ -1,4 +1,4 @@
-#include "flare/Preview.h"
+#include "flare/ghosts/Preview.h"
 
 #include <algorithm>
 #include <cmath>
@@ -12,9 +12,9 @@
 #include <tbb/parallel_for.h>
 #include <tbb/partitioner.h>
 
-#include "flare/BundleTracer.h"
-#include "flare/Paraxial.h"
-#include "flare/PupilMesh.h"
+#include "flare/optics/BundleTracer.h"
+#include "flare/optics/Paraxial.h"
+#include "flare/ghosts/PupilMesh.h"
 
 namespace flare {
 

@@ -1,4 +1,4 @@
-#include "flare/PupilMesh.h"
+#include "flare/ghosts/PupilMesh.h"
 
 #include <algorithm>
 #include <cmath>

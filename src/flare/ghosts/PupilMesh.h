@@ -36,8 +36,8 @@
 
 #include <glm/vec2.hpp>
 
-#include "flare/BundleTracer.h"
-#include "flare/GhostAnalysis.h"
+#include "flare/optics/BundleTracer.h"
+#include "flare/ghosts/GhostAnalysis.h"
 
 namespace flare {
 

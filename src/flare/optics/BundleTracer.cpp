@@ -1,4 +1,4 @@
-#include "flare/BundleTracer.h"
+#include "flare/optics/BundleTracer.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 
 #include <glm/geometric.hpp>
 
-#include "flare/Fresnel.h"
+#include "flare/optics/Fresnel.h"
 
 namespace flare {
 

@@ -13,8 +13,8 @@
 
 #include <glm/vec2.hpp>
 
-#include "flare/PupilGrid.h"
-#include "flare/SequentialTracer.h"
+#include "flare/optics/PupilGrid.h"
+#include "flare/optics/SequentialTracer.h"
 
 namespace flare {
 

@@ -1,4 +1,4 @@
-#include "flare/Coating.h"
+#include "flare/optics/Coating.h"
 
 #include <algorithm>
 #include <cassert>

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "flare/Fresnel.h"
+#include "flare/optics/Fresnel.h"
 
 namespace flare {
 

@@ -1,4 +1,4 @@
-#include "flare/Fresnel.h"
+#include "flare/optics/Fresnel.h"
 
 #include <algorithm>
 #include <cmath>

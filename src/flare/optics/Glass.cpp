@@ -1,4 +1,4 @@
-#include "flare/Glass.h"
+#include "flare/optics/Glass.h"
 
 #include <algorithm>
 #include <cassert>
@@ -12,7 +12,7 @@ namespace flare {
 namespace {
 
 const CatalogGlass kCatalog[] = {
-#include "flare/GlassCatalogData.inc"
+#include "flare/optics/GlassCatalogData.inc"
 };
 
 bool equalsIgnoreCase(std::string_view a, std::string_view b) {

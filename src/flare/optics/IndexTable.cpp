@@ -1,4 +1,4 @@
-#include "flare/IndexTable.h"
+#include "flare/optics/IndexTable.h"
 
 #include <algorithm>
 #include <cmath>

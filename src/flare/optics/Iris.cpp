@@ -1,4 +1,4 @@
-#include "flare/Iris.h"
+#include "flare/optics/Iris.h"
 
 #include <cassert>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "flare/LensDrawing.h"
+#include "flare/optics/LensDrawing.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,10 +6,10 @@
 #include <numbers>
 #include <sstream>
 
-#include "flare/GhostAnalysis.h"
-#include "flare/Paraxial.h"
-#include "flare/RealRays.h"
-#include "flare/SequentialTracer.h"
+#include "flare/ghosts/GhostAnalysis.h"
+#include "flare/optics/Paraxial.h"
+#include "flare/optics/RealRays.h"
+#include "flare/optics/SequentialTracer.h"
 
 namespace flare {
 

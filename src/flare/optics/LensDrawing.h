@@ -7,7 +7,7 @@
 
 #include <glm/vec3.hpp>
 
-#include "flare/LensSystem.h"
+#include "flare/optics/LensSystem.h"
 
 namespace flare {
 

@@ -1,4 +1,4 @@
-#include "flare/LensFile.h"
+#include "flare/optics/LensFile.h"
 
 #include <algorithm>
 #include <cctype>
@@ -10,9 +10,9 @@
 #include <sstream>
 #include <vector>
 
-#include "flare/EmbeddedLenses.h"
-#include "flare/Error.h"
-#include "flare/LensSystem.h"
+#include "flare/optics/EmbeddedLenses.h"
+#include "flare/core/Error.h"
+#include "flare/optics/LensSystem.h"
 
 namespace flare {
 

@@ -5,7 +5,7 @@
 #include <string>
 #include <string_view>
 
-#include "flare/LensPrescription.h"
+#include "flare/optics/LensPrescription.h"
 
 namespace flare {
 

@@ -1,4 +1,4 @@
-#include "flare/LensPrescription.h"
+#include "flare/optics/LensPrescription.h"
 
 namespace flare {
 

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "flare/Coating.h"
-#include "flare/Glass.h"
-#include "flare/Surface.h"
+#include "flare/optics/Coating.h"
+#include "flare/optics/Glass.h"
+#include "flare/optics/Surface.h"
 
 namespace flare {
 

@@ -1,4 +1,4 @@
-#include "flare/LensSystem.h"
+#include "flare/optics/LensSystem.h"
 
 #include <algorithm>
 #include <charconv>
@@ -6,8 +6,8 @@
 #include <cstdio>
 #include <numbers>
 
-#include "flare/Error.h"
-#include "flare/Paraxial.h"
+#include "flare/core/Error.h"
+#include "flare/optics/Paraxial.h"
 
 namespace flare {
 

@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
-#include "flare/Coating.h"
-#include "flare/Iris.h"
-#include "flare/LensPrescription.h"
-#include "flare/Surface.h"
+#include "flare/optics/Coating.h"
+#include "flare/optics/Iris.h"
+#include "flare/optics/LensPrescription.h"
+#include "flare/optics/Surface.h"
 
 namespace flare {
 

@@ -1,4 +1,4 @@
-#include "flare/Paraxial.h"
+#include "flare/optics/Paraxial.h"
 
 #include <cmath>
 #include <limits>

@@ -2,7 +2,7 @@
 // f-numbers and field of view, at any wavelength.
 #pragma once
 
-#include "flare/LensSystem.h"
+#include "flare/optics/LensSystem.h"
 
 namespace flare {
 

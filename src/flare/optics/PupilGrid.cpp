@@ -1,4 +1,4 @@
-#include "flare/PupilGrid.h"
+#include "flare/optics/PupilGrid.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 
 #include <glm/geometric.hpp>
 
-#include "flare/RealRays.h"
+#include "flare/optics/RealRays.h"
 
 namespace flare {
 

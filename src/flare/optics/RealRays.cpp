@@ -1,4 +1,4 @@
-#include "flare/RealRays.h"
+#include "flare/optics/RealRays.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,9 +7,9 @@
 #include <glm/geometric.hpp>
 #include <glm/vec2.hpp>
 
-#include "flare/Fresnel.h"
-#include "flare/Paraxial.h"
-#include "flare/SequentialTracer.h"
+#include "flare/optics/Fresnel.h"
+#include "flare/optics/Paraxial.h"
+#include "flare/optics/SequentialTracer.h"
 
 namespace flare {
 

@@ -5,8 +5,8 @@
 
 #include <optional>
 
-#include "flare/LensSystem.h"
-#include "flare/Ray.h"
+#include "flare/optics/LensSystem.h"
+#include "flare/core/Ray.h"
 
 namespace flare {
 

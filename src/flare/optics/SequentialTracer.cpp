@@ -1,10 +1,10 @@
-#include "flare/SequentialTracer.h"
+#include "flare/optics/SequentialTracer.h"
 
 #include <cmath>
 
 #include <glm/geometric.hpp>
 
-#include "flare/Fresnel.h"
+#include "flare/optics/Fresnel.h"
 
 namespace flare {
 

@@ -8,8 +8,8 @@
 #include <span>
 #include <vector>
 
-#include "flare/LensSystem.h"
-#include "flare/Ray.h"
+#include "flare/optics/LensSystem.h"
+#include "flare/core/Ray.h"
 
 namespace flare {
 

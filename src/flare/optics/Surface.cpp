@@ -1,4 +1,4 @@
-#include "flare/Surface.h"
+#include "flare/optics/Surface.h"
 
 #include <algorithm>
 #include <cmath>

@@ -8,7 +8,7 @@
 #include <cmath>
 #include <cstdint>
 
-#include "flare/Ray.h"
+#include "flare/core/Ray.h"
 
 namespace flare {
 

@@ -1,4 +1,4 @@
-#include "flare/CoverageMask.h"
+#include "flare/photons/CoverageMask.h"
 
 #include <algorithm>
 #include <cmath>
@@ -15,7 +15,7 @@
 #include <OpenEXR/ImfInputFile.h>
 #include <png.h>
 
-#include "flare/Error.h"
+#include "flare/core/Error.h"
 
 namespace flare {
 

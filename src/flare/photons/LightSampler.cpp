@@ -1,4 +1,4 @@
-#include "flare/LightSampler.h"
+#include "flare/photons/LightSampler.h"
 
 #include <algorithm>
 #include <cmath>

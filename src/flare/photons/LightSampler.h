@@ -7,8 +7,8 @@
 // the plane, so that power density × area / probability is an unbiased photon power.
 #pragma once
 
-#include "flare/PupilGrid.h"
-#include "flare/Scene.h"
+#include "flare/optics/PupilGrid.h"
+#include "flare/scene/Scene.h"
 
 namespace flare {
 

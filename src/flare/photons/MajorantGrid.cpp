@@ -1,4 +1,4 @@
-#include "flare/MajorantGrid.h"
+#include "flare/photons/MajorantGrid.h"
 
 #include <algorithm>
 #include <cmath>

@@ -17,8 +17,8 @@
 
 #include <glm/vec3.hpp>
 
-#include "flare/Random.h"
-#include "flare/VolumeGrid.h"
+#include "flare/core/Random.h"
+#include "flare/photons/VolumeGrid.h"
 
 namespace flare {
 

@@ -1,4 +1,4 @@
-#include "flare/Phase.h"
+#include "flare/photons/Phase.h"
 
 #include <algorithm>
 #include <cmath>

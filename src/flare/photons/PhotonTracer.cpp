@@ -1,4 +1,4 @@
-#include "flare/PhotonTracer.h"
+#include "flare/photons/PhotonTracer.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,11 +9,11 @@
 
 #include <glm/geometric.hpp>
 
-#include "flare/Fresnel.h"
-#include "flare/MajorantGrid.h"
-#include "flare/Phase.h"
-#include "flare/SequentialTracer.h"
-#include "flare/VolumeGrid.h"
+#include "flare/optics/Fresnel.h"
+#include "flare/photons/MajorantGrid.h"
+#include "flare/photons/Phase.h"
+#include "flare/optics/SequentialTracer.h"
+#include "flare/photons/VolumeGrid.h"
 
 namespace flare {
 

@@ -25,12 +25,12 @@
 
 #include <glm/vec2.hpp>
 
-#include "flare/CoverageMask.h"
-#include "flare/LensSystem.h"
-#include "flare/MajorantGrid.h"
-#include "flare/Random.h"
-#include "flare/Ray.h"
-#include "flare/VolumeGrid.h"
+#include "flare/photons/CoverageMask.h"
+#include "flare/optics/LensSystem.h"
+#include "flare/photons/MajorantGrid.h"
+#include "flare/core/Random.h"
+#include "flare/core/Ray.h"
+#include "flare/photons/VolumeGrid.h"
 
 namespace flare {
 

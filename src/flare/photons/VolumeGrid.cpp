@@ -1,4 +1,4 @@
-#include "flare/VolumeGrid.h"
+#include "flare/photons/VolumeGrid.h"
 
 #include <algorithm>
 #include <cmath>
@@ -20,7 +20,7 @@
 #include <openvdb/io/Stream.h>
 #include <openvdb/tree/ValueAccessor.h>
 
-#include "flare/Error.h"
+#include "flare/core/Error.h"
 
 namespace flare {
 

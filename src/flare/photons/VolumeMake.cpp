@@ -1,4 +1,4 @@
-#include "flare/VolumeMake.h"
+#include "flare/photons/VolumeMake.h"
 
 #include <algorithm>
 #include <array>
@@ -12,7 +12,7 @@
 #include <glm/geometric.hpp>
 #include <glm/mat3x3.hpp>
 
-#include "flare/Random.h"
+#include "flare/core/Random.h"
 
 namespace flare {
 

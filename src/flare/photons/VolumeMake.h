@@ -28,7 +28,7 @@
 #include <optional>
 #include <string>
 
-#include "flare/VolumeGrid.h"
+#include "flare/photons/VolumeGrid.h"
 
 namespace flare {
 

@@ -1,4 +1,4 @@
-#include "flare/Render.h"
+#include "flare/render/Render.h"
 
 #include <algorithm>
 #include <chrono>
@@ -12,13 +12,13 @@
 #include <glm/geometric.hpp>
 #include <tbb/parallel_for.h>
 
-#include "flare/CoverageMask.h"
-#include "flare/Error.h"
-#include "flare/GuideMask.h"
-#include "flare/LensFile.h"
-#include "flare/LightSampler.h"
-#include "flare/SequentialTracer.h"
-#include "flare/VolumeGrid.h"
+#include "flare/photons/CoverageMask.h"
+#include "flare/core/Error.h"
+#include "flare/ghosts/GuideMask.h"
+#include "flare/optics/LensFile.h"
+#include "flare/photons/LightSampler.h"
+#include "flare/optics/SequentialTracer.h"
+#include "flare/photons/VolumeGrid.h"
 
 namespace flare {
 

@@ -23,11 +23,11 @@
 #include <string>
 #include <vector>
 
-#include "flare/Film.h"
-#include "flare/GhostAnalysis.h"
-#include "flare/IndexTable.h"
-#include "flare/PhotonTracer.h"
-#include "flare/Scene.h"
+#include "flare/film/Film.h"
+#include "flare/ghosts/GhostAnalysis.h"
+#include "flare/optics/IndexTable.h"
+#include "flare/photons/PhotonTracer.h"
+#include "flare/scene/Scene.h"
 
 namespace flare {
 

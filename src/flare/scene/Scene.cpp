@@ -1,4 +1,4 @@
-#include "flare/Scene.h"
+#include "flare/scene/Scene.h"
 
 #include <algorithm>
 #include <charconv>
@@ -14,9 +14,9 @@
 #include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
 
-#include "flare/EmbeddedLenses.h"
-#include "flare/Error.h"
-#include "flare/LensFile.h"
+#include "flare/optics/EmbeddedLenses.h"
+#include "flare/core/Error.h"
+#include "flare/optics/LensFile.h"
 
 namespace flare {
 

@@ -14,9 +14,9 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
-#include "flare/LensPrescription.h"
-#include "flare/LensSystem.h"
-#include "flare/Spectrum.h"
+#include "flare/optics/LensPrescription.h"
+#include "flare/optics/LensSystem.h"
+#include "flare/core/Spectrum.h"
 
 namespace flare {
 

@@ -12,7 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "TestUtil.h"
-#include "flare/ImageIO.h"
+#include "flare/film/ImageIO.h"
 
 namespace flare {
 namespace {

@@ -15,7 +15,7 @@
 #include <glm/exponential.hpp>
 #include <gtest/gtest.h>
 
-#include "flare/Spectrum.h"
+#include "flare/core/Spectrum.h"
 
 namespace flare {
 namespace {

@@ -13,11 +13,11 @@
 #include <gtest/gtest.h>
 
 #include "TestUtil.h"
-#include "flare/Film.h"
-#include "flare/PupilGrid.h"
-#include "flare/Random.h"
-#include "flare/SequentialTracer.h"
-#include "flare/Spectrum.h"
+#include "flare/film/Film.h"
+#include "flare/optics/PupilGrid.h"
+#include "flare/core/Random.h"
+#include "flare/optics/SequentialTracer.h"
+#include "flare/core/Spectrum.h"
 
 namespace flare {
 namespace {

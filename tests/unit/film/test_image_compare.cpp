@@ -16,10 +16,10 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "flare/Error.h"
-#include "flare/ImageCompare.h"
+#include "flare/core/Error.h"
+#include "flare/film/ImageCompare.h"
 #include "TestUtil.h"
-#include "flare/ImageIO.h"
+#include "flare/film/ImageIO.h"
 
 namespace flare {
 namespace {

@@ -21,9 +21,9 @@
 #include <gtest/gtest.h>
 #include <png.h>
 
-#include "flare/Error.h"
-#include "flare/ImageIO.h"
-#include "flare/Spectrum.h"
+#include "flare/core/Error.h"
+#include "flare/film/ImageIO.h"
+#include "flare/core/Spectrum.h"
 
 namespace flare {
 namespace {

@@ -7,11 +7,11 @@
 #include <tbb/parallel_for.h>
 
 #include "TestUtil.h"
-#include "flare/GhostAnalysis.h"
-#include "flare/Ghosts.h"
-#include "flare/LensFile.h"
-#include "flare/Paraxial.h"
-#include "flare/SequentialTracer.h"
+#include "flare/ghosts/GhostAnalysis.h"
+#include "flare/ghosts/Ghosts.h"
+#include "flare/optics/LensFile.h"
+#include "flare/optics/Paraxial.h"
+#include "flare/optics/SequentialTracer.h"
 
 namespace flare {
 namespace {

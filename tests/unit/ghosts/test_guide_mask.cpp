@@ -10,8 +10,8 @@
 #include <gtest/gtest.h>
 
 #include "TestUtil.h"
-#include "flare/GuideMask.h"
-#include "flare/Random.h"
+#include "flare/ghosts/GuideMask.h"
+#include "flare/core/Random.h"
 
 namespace flare {
 namespace {

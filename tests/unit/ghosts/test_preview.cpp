@@ -13,10 +13,10 @@
 #include <tbb/parallel_for.h>
 
 #include "TestUtil.h"
-#include "flare/EmbeddedLenses.h"
-#include "flare/LensFile.h"
-#include "flare/Preview.h"
-#include "flare/SequentialTracer.h"
+#include "flare/optics/EmbeddedLenses.h"
+#include "flare/optics/LensFile.h"
+#include "flare/ghosts/Preview.h"
+#include "flare/optics/SequentialTracer.h"
 
 namespace flare {
 namespace {

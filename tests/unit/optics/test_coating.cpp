@@ -5,10 +5,10 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
-#include "flare/Coating.h"
-#include "flare/Glass.h"
-#include "flare/LensFile.h"
-#include "flare/SequentialTracer.h"
+#include "flare/optics/Coating.h"
+#include "flare/optics/Glass.h"
+#include "flare/optics/LensFile.h"
+#include "flare/optics/SequentialTracer.h"
 
 namespace flare {
 namespace {

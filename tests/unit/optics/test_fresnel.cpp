@@ -5,8 +5,8 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
-#include "flare/Fresnel.h"
-#include "flare/Glass.h"
+#include "flare/optics/Fresnel.h"
+#include "flare/optics/Glass.h"
 
 namespace flare {
 namespace {

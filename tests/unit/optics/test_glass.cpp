@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "flare/Glass.h"
+#include "flare/optics/Glass.h"
 
 namespace flare {
 namespace {

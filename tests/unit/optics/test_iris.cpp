@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "flare/Iris.h"
+#include "flare/optics/Iris.h"
 
 namespace flare {
 namespace {

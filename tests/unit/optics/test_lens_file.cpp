@@ -5,8 +5,8 @@
 #include <gtest/gtest.h>
 
 #include "TestUtil.h"
-#include "flare/Error.h"
-#include "flare/LensFile.h"
+#include "flare/core/Error.h"
+#include "flare/optics/LensFile.h"
 
 namespace flare {
 namespace {

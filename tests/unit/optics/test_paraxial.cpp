@@ -6,10 +6,10 @@
 #include <gtest/gtest.h>
 
 #include "TestUtil.h"
-#include "flare/Error.h"
-#include "flare/Glass.h"
-#include "flare/LensFile.h"
-#include "flare/Paraxial.h"
+#include "flare/core/Error.h"
+#include "flare/optics/Glass.h"
+#include "flare/optics/LensFile.h"
+#include "flare/optics/Paraxial.h"
 
 namespace flare {
 namespace {

@@ -8,11 +8,11 @@
 #include <gtest/gtest.h>
 
 #include "TestUtil.h"
-#include "flare/Glass.h"
-#include "flare/LensFile.h"
-#include "flare/Paraxial.h"
-#include "flare/RealRays.h"
-#include "flare/SequentialTracer.h"
+#include "flare/optics/Glass.h"
+#include "flare/optics/LensFile.h"
+#include "flare/optics/Paraxial.h"
+#include "flare/optics/RealRays.h"
+#include "flare/optics/SequentialTracer.h"
 
 namespace flare {
 namespace {

@@ -5,7 +5,7 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
-#include "flare/Surface.h"
+#include "flare/optics/Surface.h"
 
 namespace flare {
 namespace {

@@ -21,12 +21,12 @@
 
 #include "RenderTestUtil.h"
 #include "TestUtil.h"
-#include "flare/CoverageMask.h"
-#include "flare/Error.h"
-#include "flare/LensFile.h"
-#include "flare/PhotonTracer.h"
-#include "flare/Render.h"
-#include "flare/Scene.h"
+#include "flare/photons/CoverageMask.h"
+#include "flare/core/Error.h"
+#include "flare/optics/LensFile.h"
+#include "flare/photons/PhotonTracer.h"
+#include "flare/render/Render.h"
+#include "flare/scene/Scene.h"
 
 namespace flare {
 namespace {

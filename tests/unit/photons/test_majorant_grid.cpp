@@ -13,10 +13,10 @@
 #include <gtest/gtest.h>
 
 #include "TestUtil.h"
-#include "flare/MajorantGrid.h"
-#include "flare/Random.h"
-#include "flare/VolumeGrid.h"
-#include "flare/VolumeMake.h"
+#include "flare/photons/MajorantGrid.h"
+#include "flare/core/Random.h"
+#include "flare/photons/VolumeGrid.h"
+#include "flare/photons/VolumeMake.h"
 
 namespace flare {
 namespace {

@@ -8,8 +8,8 @@
 #include <gtest/gtest.h>
 
 #include "TestUtil.h"
-#include "flare/LensFile.h"
-#include "flare/PhotonTracer.h"
+#include "flare/optics/LensFile.h"
+#include "flare/photons/PhotonTracer.h"
 
 namespace flare {
 namespace {

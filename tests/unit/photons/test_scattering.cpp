@@ -14,12 +14,12 @@
 
 #include "RenderTestUtil.h"
 #include "TestUtil.h"
-#include "flare/Error.h"
-#include "flare/LensFile.h"
-#include "flare/Phase.h"
-#include "flare/PhotonTracer.h"
-#include "flare/Render.h"
-#include "flare/SequentialTracer.h"
+#include "flare/core/Error.h"
+#include "flare/optics/LensFile.h"
+#include "flare/photons/Phase.h"
+#include "flare/photons/PhotonTracer.h"
+#include "flare/render/Render.h"
+#include "flare/optics/SequentialTracer.h"
 
 namespace flare {
 namespace {

@@ -27,10 +27,10 @@
 #endif
 
 #include "TestUtil.h"
-#include "flare/Error.h"
-#include "flare/Random.h"
-#include "flare/VolumeGrid.h"
-#include "flare/VolumeMake.h"
+#include "flare/core/Error.h"
+#include "flare/core/Random.h"
+#include "flare/photons/VolumeGrid.h"
+#include "flare/photons/VolumeMake.h"
 
 namespace flare {
 namespace {

@@ -14,9 +14,9 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
-#include "flare/Error.h"
-#include "flare/Preview.h"
-#include "flare/Render.h"
+#include "flare/core/Error.h"
+#include "flare/ghosts/Preview.h"
+#include "flare/render/Render.h"
 #include "RenderTestUtil.h"
 
 namespace flare {

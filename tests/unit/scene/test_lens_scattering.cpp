@@ -7,10 +7,10 @@
 
 #include <gtest/gtest.h>
 
-#include "flare/Error.h"
-#include "flare/LensFile.h"
-#include "flare/Render.h"
-#include "flare/Scene.h"
+#include "flare/core/Error.h"
+#include "flare/optics/LensFile.h"
+#include "flare/render/Render.h"
+#include "flare/scene/Scene.h"
 #include "TestUtil.h"
 
 namespace flare {

@@ -12,12 +12,12 @@
 #include <gtest/gtest.h>
 
 #include "TestUtil.h"
-#include "flare/Error.h"
-#include "flare/Glass.h"
-#include "flare/Paraxial.h"
-#include "flare/RealRays.h"
-#include "flare/Scene.h"
-#include "flare/SequentialTracer.h"
+#include "flare/core/Error.h"
+#include "flare/optics/Glass.h"
+#include "flare/optics/Paraxial.h"
+#include "flare/optics/RealRays.h"
+#include "flare/scene/Scene.h"
+#include "flare/optics/SequentialTracer.h"
 
 namespace flare {
 namespace {
