@@ -14,6 +14,7 @@
 #include <algorithm>
 
 #include "flare/core/Error.h"
+#include "flare/ghosts/GhostRays.h"
 #include "flare/ghosts/Ghosts.h"
 #include "flare/optics/LensDrawing.h"
 #include "flare/optics/LensFile.h"

@@ -11,11 +11,11 @@
 
 #include <glm/geometric.hpp>
 
-#include "flare/ghosts/GhostAnalysis.h"
+#include "flare/core/Spectrum.h"
 #include "flare/film/ImageIO.h"
+#include "flare/ghosts/GhostAnalysis.h"
 #include "flare/ghosts/Preview.h"
 #include "flare/scene/Scene.h"
-#include "flare/core/Spectrum.h"
 
 namespace flare::cli {
 

@@ -15,10 +15,11 @@
 
 #include "Output.h"
 #include "flare/core/Error.h"
+#include "flare/core/Spectrum.h"
 #include "flare/film/ImageIO.h"
 #include "flare/render/Render.h"
 #include "flare/scene/Scene.h"
-#include "flare/core/Spectrum.h"
+#include "flare/scene/SceneScattering.h"
 
 namespace flare::cli {
 
@@ -179,7 +180,7 @@ int run(const RenderCommandOptions& o) {
     options.film.radiusPx = o.radiusPx;
     if (o.kernel == "progressive" && o.radiusPx == 1.0) options.film.radiusPx = 4.0;
 
-    Renderer renderer(lens, scene, options);
+    Renderer renderer(lens, scene.lights, options);
     const std::string checkpoint = o.checkpoint.empty() ? o.exr + ".checkpoint" : o.checkpoint;
     if (!o.checkpoint.empty() && std::filesystem::exists(o.checkpoint)) {
         renderer.loadCheckpoint(o.checkpoint);

@@ -3,8 +3,8 @@
 // with the sensor, 351 without).
 #include <benchmark/benchmark.h>
 
-#include "flare/optics/LensFile.h"
 #include "flare/ghosts/Preview.h"
+#include "flare/optics/LensFile.h"
 #include "flare/optics/PupilGrid.h"
 
 namespace {

@@ -7,8 +7,9 @@
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
-#include "flare/render/Render.h"
 #include "flare/photons/VolumeGrid.h"
+#include "flare/render/Render.h"
+#include "flare/scene/Scene.h"
 
 namespace {
 
@@ -40,7 +41,7 @@ void renderPasses(benchmark::State& state, RenderOptions::Mode mode, int bulk = 
     options.film.widthMm = lens.sensor().widthMm;
     options.film.heightMm = lens.sensor().heightMm;
     addBulk(lens, bulk, options);
-    Renderer renderer(lens, scene, options);
+    Renderer renderer(lens, scene.lights, options);
     for (auto _ : state) renderer.runPass();
     const RenderStatistics& s = renderer.statistics();
     if (s.realCollisions + s.nullCollisions > 0)

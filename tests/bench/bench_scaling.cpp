@@ -12,12 +12,13 @@
 #include <glm/geometric.hpp>
 #include <tbb/global_control.h>
 
-#include "flare/optics/LensFile.h"
 #include "flare/ghosts/Preview.h"
+#include "flare/optics/LensFile.h"
 #include "flare/optics/PupilGrid.h"
 #include "flare/optics/RealRays.h"
-#include "flare/render/Render.h"
 #include "flare/optics/SequentialTracer.h"
+#include "flare/render/Render.h"
+#include "flare/scene/Scene.h"
 
 namespace {
 
@@ -57,7 +58,7 @@ void BM_RenderPhotonCount(benchmark::State& state) {
     for (auto _ : state) {
         state.PauseTiming();
         RenderOptions o = optionsFor(scene, lens, mode);
-        Renderer r(lens, scene, o);
+        Renderer r(lens, scene.lights, o);
         state.ResumeTiming();
         while (r.statistics().photons < photons) r.runPass();
     }
@@ -77,7 +78,7 @@ void BM_RenderNaiveLens(benchmark::State& state) {
     tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 1);
     const Scene scene = sceneFor(kLenses[state.range(0)]);
     const LensSystem lens = buildSceneLens(scene);
-    Renderer r(lens, scene, optionsFor(scene, lens, RenderOptions::Mode::Naive));
+    Renderer r(lens, scene.lights, optionsFor(scene, lens, RenderOptions::Mode::Naive));
     for (auto _ : state) r.runPass();
     state.SetLabel(kLenses[state.range(0)]);
     state.counters["surfaces"] = lens.surfaceCount();

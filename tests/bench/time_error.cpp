@@ -61,11 +61,12 @@
 
 #include <CLI/CLI.hpp>
 
+#include "flare/core/Spectrum.h"
 #include "flare/film/ImageCompare.h"
 #include "flare/film/ImageIO.h"
 #include "flare/ghosts/Preview.h"
 #include "flare/render/Render.h"
-#include "flare/core/Spectrum.h"
+#include "flare/scene/SceneScattering.h"
 
 using namespace flare;
 
@@ -259,8 +260,8 @@ void setBinnedErrors(Reference& ref) {
 Reference computeReference(const Scene& scene, const LensSystem& lens, double targetError, double maxSeconds) {
     const int w = scene.sensor.widthPx, h = scene.sensor.heightPx;
     const auto start = Clock::now();
-    Renderer a(lens, scene, optionsFor(scene, lens, RenderOptions::Mode::Guided, 1001));
-    Renderer b(lens, scene, optionsFor(scene, lens, RenderOptions::Mode::Guided, 1002));
+    Renderer a(lens, scene.lights, optionsFor(scene, lens, RenderOptions::Mode::Guided, 1001));
+    Renderer b(lens, scene.lights, optionsFor(scene, lens, RenderOptions::Mode::Guided, 1002));
     Reference ref;
     int nextCheck = 4;
     while (true) {
@@ -541,7 +542,7 @@ int main(int argc, char** argv) {
             const bool guided = m == 0;
             const std::string name = guided ? "guided" : "naive";
             const auto t0 = Clock::now();
-            Renderer r(lens, scene, optionsFor(scene, lens, guided ? RenderOptions::Mode::Guided : RenderOptions::Mode::Naive, 1));
+            Renderer r(lens, scene.lights, optionsFor(scene, lens, guided ? RenderOptions::Mode::Guided : RenderOptions::Mode::Naive, 1));
             double timed = seconds(t0);
             std::vector<Point> points;
             std::vector<ImageLayer> snapshots;  // guided: the flare image at each point, for the strip

@@ -35,16 +35,16 @@
 #endif
 
 #include "flare/core/Error.h"
+#include "flare/core/Random.h"
 #include "flare/film/Film.h"
 #include "flare/film/ImageIO.h"
 #include "flare/optics/LensFile.h"
 #include "flare/optics/Paraxial.h"
+#include "flare/optics/SequentialTracer.h"
 #include "flare/photons/PhotonTracer.h"
-#include "flare/core/Random.h"
+#include "flare/photons/VolumeGrid.h"
 #include "flare/render/Render.h"
 #include "flare/scene/Scene.h"
-#include "flare/optics/SequentialTracer.h"
-#include "flare/photons/VolumeGrid.h"
 
 namespace flare::fuzz {
 
@@ -111,7 +111,7 @@ struct CheckpointFixture {
         options.film.kernel = FilmSettings::Kernel::Adaptive;  // its count grid is in the checkpoint too
         options.batchPhotons = 64;
         options.batchesPerPass = 2;
-        renderer = std::make_unique<Renderer>(lens, scene, options);
+        renderer = std::make_unique<Renderer>(lens, scene.lights, options);
     }
 };
 

@@ -15,11 +15,11 @@
 #include "RandomLens.h"
 #include "flare/core/Error.h"
 #include "flare/optics/LensFile.h"
-#include "flare/photons/PhotonTracer.h"
 #include "flare/optics/RealRays.h"
+#include "flare/optics/SequentialTracer.h"
+#include "flare/photons/PhotonTracer.h"
 #include "flare/render/Render.h"
 #include "flare/scene/Scene.h"
-#include "flare/optics/SequentialTracer.h"
 
 namespace flare::stress {
 
@@ -745,7 +745,7 @@ StressReport runRenderStress(const StressConfig& config) {
             options.film.radiusPx = kernel == 0 ? uniform(rng, 0.5, 3.0) : 4.0;
             options.batchPhotons = 256;
             options.batchesPerPass = 4;
-            Renderer renderer(lens, scene, options);
+            Renderer renderer(lens, scene.lights, options);
             for (int p = 0; p < config.renderPasses; ++p) renderer.runPass();
             ++report.renders;
             report.renderPhotons += renderer.statistics().photons;

@@ -10,6 +10,7 @@
 #include "TestUtil.h"
 #include "flare/render/Render.h"
 #include "flare/scene/Scene.h"
+#include "flare/scene/SceneScattering.h"
 
 namespace flare::test {
 

@@ -9,8 +9,8 @@
 #include <tbb/parallel_for.h>
 #include <tbb/partitioner.h>
 
-#include "flare/optics/BundleTracer.h"
 #include "flare/ghosts/PupilMesh.h"
+#include "flare/optics/BundleTracer.h"
 
 namespace flare {
 

@@ -12,9 +12,9 @@
 #include <tbb/parallel_for.h>
 #include <tbb/partitioner.h>
 
+#include "flare/ghosts/PupilMesh.h"
 #include "flare/optics/BundleTracer.h"
 #include "flare/optics/Paraxial.h"
-#include "flare/ghosts/PupilMesh.h"
 
 namespace flare {
 

@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "flare/ghosts/GhostAnalysis.h"
 #include "flare/core/Spectrum.h"
+#include "flare/ghosts/GhostAnalysis.h"
 
 namespace flare {
 

@@ -36,8 +36,8 @@
 
 #include <glm/vec2.hpp>
 
-#include "flare/optics/BundleTracer.h"
 #include "flare/ghosts/GhostAnalysis.h"
+#include "flare/optics/BundleTracer.h"
 
 namespace flare {
 

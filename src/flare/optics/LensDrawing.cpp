@@ -6,8 +6,8 @@
 #include <numbers>
 #include <sstream>
 
-#include "flare/ghosts/GhostAnalysis.h"
 #include "flare/optics/Paraxial.h"
+#include "flare/optics/PupilGrid.h"
 #include "flare/optics/RealRays.h"
 #include "flare/optics/SequentialTracer.h"
 
@@ -53,7 +53,7 @@ std::vector<DrawnRay> traceRayFans(const LensSystem& lens, const LensDrawingOpti
     std::vector<DrawnRay> rays;
     const SpectralIndices indices = lens.indicesAt(options.wavelengthNm);
     const double stopRadius = lens.iris().radiusMm();
-    const double zFront = objectSpaceStartZMm(lens) - 0.15 * lens.totalTrackMm();
+    const double zFront = drawingStartZMm(lens);
     int fieldIndex = 0;
     for (double fieldDeg : options.fieldsDeg) {
         const std::string colour = kFieldColours[fieldIndex++ % std::size(kFieldColours)];
@@ -79,51 +79,14 @@ std::vector<DrawnRay> traceRayFans(const LensSystem& lens, const LensDrawingOpti
     return rays;
 }
 
-std::vector<DrawnRay> traceGhostRays(const LensSystem& lens, const std::vector<int>& reflections, double fieldDeg,
-                                     int count, double wavelengthNm) {
-    const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(fieldDeg, 0.0));
-    const SpectralIndices indices = lens.indicesAt(wavelengthNm);
-    const GhostEstimate estimate =
-        estimatePath(lens, indices, grid, grid.enteringAreaMm2(lens, 128), GhostPath{reflections}, GhostAnalysisOptions{});
-    std::vector<DrawnRay> rays;
-    const LivePupilRegion& region = estimate.pupil;
-    if (region.liveCount() == 0) return rays;
-    // The row of the live region with the most live cells, near its middle.
-    int bestRow = 0, bestCount = -1;
-    for (int j = 0; j < region.cellsB; ++j) {
-        int live = 0;
-        for (int i = 0; i < region.cellsA; ++i) live += region.live[static_cast<size_t>(j) * region.cellsA + i];
-        if (live > bestCount) bestCount = live, bestRow = j;
-    }
-    std::vector<int> columns;
-    for (int i = 0; i < region.cellsA; ++i)
-        if (region.live[static_cast<size_t>(bestRow) * region.cellsA + i]) columns.push_back(i);
-    const int n = std::min<int>(std::max(1, count), static_cast<int>(columns.size()));
-    const double zFront = objectSpaceStartZMm(lens) - 0.15 * lens.totalTrackMm();
-    SequentialPath path;
-    path.reflections = reflections;
-    for (int k = 0; k < n; ++k) {
-        const int i = columns[n == 1 ? columns.size() / 2 : k * (columns.size() - 1) / (n - 1)];
-        const Ray ray = grid.ray(region.aMinMm + (i + 0.5) * region.cellMm, region.bMinMm + (bestRow + 0.5) * region.cellMm);
-        DrawnRay drawn;
-        drawn.colour = "#e377c2";
-        const double back = (ray.originMm.z - zFront) / ray.direction.z;
-        drawn.pointsMm.push_back(ray.at(std::min(0.0, -back)));
-        TraceOptions options;
-        options.fresnelWeights = false;
-        options.pathPointsMm = &drawn.pointsMm;
-        tracePath(lens, indices, ray, path, options);
-        rays.push_back(std::move(drawn));
-    }
-    return rays;
-}
+double drawingStartZMm(const LensSystem& lens) { return objectSpaceStartZMm(lens) - 0.15 * lens.totalTrackMm(); }
 
 std::string drawLensSvg(const LensSystem& lens, const std::vector<DrawnRay>& rays,
                         const LensDrawingOptions& options) {
     const int n = lens.surfaceCount();
     double xMax = lens.sensorHalfDiagonalMm();
     for (const HousingSection& h : lens.housing()) xMax = std::max(xMax, h.innerRadiusMm + 2.0);
-    const double zMin = objectSpaceStartZMm(lens) - 0.15 * lens.totalTrackMm();
+    const double zMin = drawingStartZMm(lens);
     const double zMax = lens.sensorZMm() + 4.0;
     const double widthPx = 1100.0;
     const Frame f{zMin, xMax + 2.0, widthPx / (zMax - zMin), 40.0};

@@ -27,10 +27,8 @@ struct LensDrawingOptions {
 // (or to where they are blocked).
 std::vector<DrawnRay> traceRayFans(const LensSystem& lens, const LensDrawingOptions& options);
 
-// Rays of one ghost path for a light at fieldDeg (in the x–z plane): up to `count` rays from the
-// middle row of the path's live pupil region, each drawn with every surface event.
-std::vector<DrawnRay> traceGhostRays(const LensSystem& lens, const std::vector<int>& reflections, double fieldDeg,
-                                     int count, double wavelengthNm);
+// Where the drawing begins in front of the lens (z, mm): rays are drawn from there.
+double drawingStartZMm(const LensSystem& lens);
 
 std::string drawLensSvg(const LensSystem& lens, const std::vector<DrawnRay>& rays,
                         const LensDrawingOptions& options);

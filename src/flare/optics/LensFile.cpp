@@ -10,8 +10,8 @@
 #include <sstream>
 #include <vector>
 
-#include "flare/optics/EmbeddedLenses.h"
 #include "flare/core/Error.h"
+#include "flare/optics/EmbeddedLenses.h"
 #include "flare/optics/LensSystem.h"
 
 namespace flare {

@@ -8,8 +8,8 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
-#include "flare/optics/LensSystem.h"
 #include "flare/core/Ray.h"
+#include "flare/optics/LensSystem.h"
 
 namespace flare {
 

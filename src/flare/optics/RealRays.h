@@ -5,8 +5,8 @@
 
 #include <optional>
 
-#include "flare/optics/LensSystem.h"
 #include "flare/core/Ray.h"
+#include "flare/optics/LensSystem.h"
 
 namespace flare {
 

@@ -8,8 +8,8 @@
 #include <span>
 #include <vector>
 
-#include "flare/optics/LensSystem.h"
 #include "flare/core/Ray.h"
+#include "flare/optics/LensSystem.h"
 
 namespace flare {
 

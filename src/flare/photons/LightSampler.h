@@ -8,7 +8,7 @@
 #pragma once
 
 #include "flare/optics/PupilGrid.h"
-#include "flare/scene/Scene.h"
+#include "flare/photons/Light.h"
 
 namespace flare {
 

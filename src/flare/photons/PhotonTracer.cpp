@@ -10,9 +10,9 @@
 #include <glm/geometric.hpp>
 
 #include "flare/optics/Fresnel.h"
+#include "flare/optics/SequentialTracer.h"
 #include "flare/photons/MajorantGrid.h"
 #include "flare/photons/Phase.h"
-#include "flare/optics/SequentialTracer.h"
 #include "flare/photons/VolumeGrid.h"
 
 namespace flare {

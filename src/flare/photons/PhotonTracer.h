@@ -25,11 +25,11 @@
 
 #include <glm/vec2.hpp>
 
-#include "flare/photons/CoverageMask.h"
-#include "flare/optics/LensSystem.h"
-#include "flare/photons/MajorantGrid.h"
 #include "flare/core/Random.h"
 #include "flare/core/Ray.h"
+#include "flare/optics/LensSystem.h"
+#include "flare/photons/CoverageMask.h"
+#include "flare/photons/MajorantGrid.h"
 #include "flare/photons/VolumeGrid.h"
 
 namespace flare {

@@ -26,8 +26,8 @@
 #include "flare/film/Film.h"
 #include "flare/ghosts/GhostAnalysis.h"
 #include "flare/optics/IndexTable.h"
+#include "flare/photons/Light.h"
 #include "flare/photons/PhotonTracer.h"
-#include "flare/scene/Scene.h"
 
 namespace flare {
 
@@ -52,12 +52,6 @@ struct RenderOptions {
     std::int64_t photonsPerPass() const { return static_cast<std::int64_t>(batchPhotons) * batchesPerPass; }
 };
 
-// Fills options.materials, .contamination and .media from the scene's lens file's scattering
-// (finishes, per-surface dust and grease) overridden by the scene's "scattering" block, checking
-// the scene against the lens (a surface number that does not exist, dust on the stop, bulk
-// scattering in an air space: InputError naming the scene file and line), loading the coverage
-// masks (errors name the scene file, line and key) and the grids (errors name the .vdb file).
-void applySceneScattering(const Scene& scene, const LensSystem& lens, RenderOptions& options);
 
 // Film layers of every render, in this order; per-ghost layers follow.
 enum RenderLayer : int { kLayerDirect = 0, kLayerGhost, kLayerHigher, kLayerScatter, kFixedLayerCount };
@@ -102,9 +96,10 @@ struct RenderStatistics {
 
 class Renderer {
 public:
-    // Analyses the ghosts of every light, plans the photon budget and allocates the film.
-    // `scene` provides the lights; `lens` is built at the scene's state (buildSceneLens).
-    Renderer(const LensSystem& lens, const Scene& scene, const RenderOptions& options);
+    // Analyses the ghosts of every light, plans the photon budget and allocates the film. `lens`
+    // is built at the scene's state (buildSceneLens); `options` carries its scattering
+    // (applySceneScattering).
+    Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights, const RenderOptions& options);
     ~Renderer();
     Renderer(const Renderer&) = delete;
     Renderer& operator=(const Renderer&) = delete;

@@ -14,20 +14,11 @@
 #include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
 
-#include "flare/optics/EmbeddedLenses.h"
 #include "flare/core/Error.h"
+#include "flare/optics/EmbeddedLenses.h"
 #include "flare/optics/LensFile.h"
 
 namespace flare {
-
-Spectrum toSpectrum(const SpectrumSpec& spec) {
-    switch (spec.kind) {
-        case SpectrumSpec::Kind::Blackbody: return Spectrum::blackbody(spec.temperatureK);
-        case SpectrumSpec::Kind::D65: return Spectrum::d65();
-        case SpectrumSpec::Kind::EqualEnergy: return Spectrum::equalEnergy();
-    }
-    return Spectrum::equalEnergy();
-}
 
 namespace {
 
@@ -762,14 +753,6 @@ std::string readFile(const std::string& path) {
 }
 
 }  // namespace
-
-glm::dvec3 LightSpec::travelDirection() const {
-    if (type == Type::Directional) {
-        constexpr double kDegToRad = std::numbers::pi / 180.0;
-        return glm::normalize(glm::dvec3(-std::tan(fieldXDeg * kDegToRad), -std::tan(fieldYDeg * kDegToRad), 1.0));
-    }
-    return glm::normalize(-positionMm);
-}
 
 Scene parseSceneText(std::string_view text, const std::string& fileName, const std::string& baseDir) {
     const Checker c(fileName);

@@ -13,11 +13,11 @@
 #include <gtest/gtest.h>
 
 #include "TestUtil.h"
+#include "flare/core/Random.h"
+#include "flare/core/Spectrum.h"
 #include "flare/film/Film.h"
 #include "flare/optics/PupilGrid.h"
-#include "flare/core/Random.h"
 #include "flare/optics/SequentialTracer.h"
-#include "flare/core/Spectrum.h"
 
 namespace flare {
 namespace {

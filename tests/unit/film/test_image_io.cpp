@@ -22,8 +22,8 @@
 #include <png.h>
 
 #include "flare/core/Error.h"
-#include "flare/film/ImageIO.h"
 #include "flare/core/Spectrum.h"
+#include "flare/film/ImageIO.h"
 
 namespace flare {
 namespace {

@@ -10,8 +10,8 @@
 #include <gtest/gtest.h>
 
 #include "TestUtil.h"
-#include "flare/ghosts/GuideMask.h"
 #include "flare/core/Random.h"
+#include "flare/ghosts/GuideMask.h"
 
 namespace flare {
 namespace {

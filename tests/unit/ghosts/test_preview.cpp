@@ -13,9 +13,9 @@
 #include <tbb/parallel_for.h>
 
 #include "TestUtil.h"
+#include "flare/ghosts/Preview.h"
 #include "flare/optics/EmbeddedLenses.h"
 #include "flare/optics/LensFile.h"
-#include "flare/ghosts/Preview.h"
 #include "flare/optics/SequentialTracer.h"
 
 namespace flare {

@@ -8,8 +8,8 @@
 #include <gtest/gtest.h>
 
 #include "TestUtil.h"
-#include "flare/optics/BundleTracer.h"
 #include "flare/ghosts/Ghosts.h"
+#include "flare/optics/BundleTracer.h"
 
 namespace flare {
 namespace {

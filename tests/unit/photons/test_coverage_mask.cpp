@@ -21,12 +21,13 @@
 
 #include "RenderTestUtil.h"
 #include "TestUtil.h"
-#include "flare/photons/CoverageMask.h"
 #include "flare/core/Error.h"
 #include "flare/optics/LensFile.h"
+#include "flare/photons/CoverageMask.h"
 #include "flare/photons/PhotonTracer.h"
 #include "flare/render/Render.h"
 #include "flare/scene/Scene.h"
+#include "flare/scene/SceneScattering.h"
 
 namespace flare {
 namespace {
@@ -252,8 +253,8 @@ TEST(CoverageMask, AllBlackMaskGivesExactlyTheCleanImage) {
         "dust": [ { "surface": 1, "coverage": 0.5, "mask": "black.png" } ],
         "grease": [ { "surface": 4, "coverage": 1, "mask": "black.png", "mask_size_mm": [30, 20], "mask_centre_mm": [1, 2] } ] })");
     const LensSystem lens = buildSceneLens(clean);
-    Renderer a(lens, clean, test::sceneRenderOptions(clean, lens, RenderOptions::Mode::Guided));
-    Renderer b(lens, masked, test::sceneRenderOptions(masked, lens, RenderOptions::Mode::Guided));
+    Renderer a(lens, clean.lights, test::sceneRenderOptions(clean, lens, RenderOptions::Mode::Guided));
+    Renderer b(lens, masked.lights, test::sceneRenderOptions(masked, lens, RenderOptions::Mode::Guided));
     a.runPass();
     b.runPass();
     for (int l = 0; l < kFixedLayerCount; ++l) EXPECT_EQ(a.layerXyz(l), b.layerXyz(l)) << l;
@@ -268,8 +269,8 @@ TEST(CoverageMask, GuidedAgreesWithNaiveWithMaskedDustAndGrease) {
         "dust": [ { "surface": 1, "coverage": 0.1, "albedo": 0.6, "mask": "halves.png" } ],
         "grease": [ { "surface": 5, "coverage": 0.8, "roughness": 0.1, "mask": ")" + fingerprint + R"(" } ] })");
     const LensSystem lens = buildSceneLens(scene);
-    Renderer naive(lens, scene, test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Naive));
-    Renderer guided(lens, scene, test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Guided));
+    Renderer naive(lens, scene.lights, test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Naive));
+    Renderer guided(lens, scene.lights, test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Guided));
     for (int p = 0; p < 30; ++p) naive.runPass();
     for (int p = 0; p < 8; ++p) guided.runPass();
     test::expectGuidedAgreesWithNaive(guided, naive, {kLayerDirect, kLayerGhost, kLayerScatter});

@@ -13,9 +13,9 @@
 #include <gtest/gtest.h>
 
 #include "TestUtil.h"
-#include "flare/photons/LightSampler.h"
 #include "flare/core/Random.h"
 #include "flare/optics/Surface.h"
+#include "flare/photons/LightSampler.h"
 
 namespace flare {
 namespace {

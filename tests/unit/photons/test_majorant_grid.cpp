@@ -13,8 +13,8 @@
 #include <gtest/gtest.h>
 
 #include "TestUtil.h"
-#include "flare/photons/MajorantGrid.h"
 #include "flare/core/Random.h"
+#include "flare/photons/MajorantGrid.h"
 #include "flare/photons/VolumeGrid.h"
 #include "flare/photons/VolumeMake.h"
 

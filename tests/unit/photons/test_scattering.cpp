@@ -16,10 +16,11 @@
 #include "TestUtil.h"
 #include "flare/core/Error.h"
 #include "flare/optics/LensFile.h"
+#include "flare/optics/SequentialTracer.h"
 #include "flare/photons/Phase.h"
 #include "flare/photons/PhotonTracer.h"
 #include "flare/render/Render.h"
-#include "flare/optics/SequentialTracer.h"
+#include "flare/scene/SceneScattering.h"
 
 namespace flare {
 namespace {
@@ -194,8 +195,8 @@ TEST(Scattering, ZeroCoverageGivesExactlyTheCleanImage) {
         R"({ "housing": { "diffuse": 0.03 }, "dust": [ { "surface": 1, "coverage": 0 } ],
              "grease": [ { "surface": 4, "coverage": 0, "roughness": 0.2 } ] })");
     const LensSystem lens = buildSceneLens(clean);
-    Renderer a(lens, clean, test::sceneRenderOptions(clean, lens, RenderOptions::Mode::Guided));
-    Renderer b(lens, zero, test::sceneRenderOptions(zero, lens, RenderOptions::Mode::Guided));
+    Renderer a(lens, clean.lights, test::sceneRenderOptions(clean, lens, RenderOptions::Mode::Guided));
+    Renderer b(lens, zero.lights, test::sceneRenderOptions(zero, lens, RenderOptions::Mode::Guided));
     a.runPass();
     b.runPass();
     for (int l = 0; l < kFixedLayerCount; ++l) EXPECT_EQ(a.layerXyz(l), b.layerXyz(l)) << l;
@@ -208,7 +209,7 @@ TEST(Scattering, ScatterLayerGrowsWithTheScatteringCoefficient) {
         const Scene scene = doubletScene(R"({ "housing": { "diffuse": 0 }, "edges": { "diffuse": 0 }, "iris": { "diffuse": 0 },
             "bulk": [ { "element": 1, "scattering_per_mm": )" + std::to_string(sigma) + R"(, "g": 0.5 } ] })");
         const LensSystem lens = buildSceneLens(scene);
-        Renderer r(lens, scene, test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Guided));
+        Renderer r(lens, scene.lights, test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Guided));
         for (int p = 0; p < 6; ++p) r.runPass();
         power[i] = r.tallyPowerW(r.layerTallies()[kLayerScatter]);
         error[i] = r.tallyStandardErrorW(r.layerTallies()[kLayerScatter]);
@@ -228,8 +229,8 @@ TEST(Scattering, GuidedAgreesWithNaiveWithDustAndBulkScattering) {
         "dust": [ { "surface": 1, "coverage": 0.05, "albedo": 0.6 } ],
         "bulk": [ { "element": 4, "scattering_per_mm": 0.02, "absorption_per_mm": 0.01, "g": 0.6 } ] })");
     const LensSystem lens = buildSceneLens(scene);
-    Renderer naive(lens, scene, test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Naive));
-    Renderer guided(lens, scene, test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Guided));
+    Renderer naive(lens, scene.lights, test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Naive));
+    Renderer guided(lens, scene.lights, test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Guided));
     for (int p = 0; p < 30; ++p) naive.runPass();
     for (int p = 0; p < 8; ++p) guided.runPass();
     // Direct, ghost and scatter: the layers the clear-crossing weight and the ownership rule act

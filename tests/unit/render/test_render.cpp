@@ -66,8 +66,8 @@ double bonferroniZ(double alpha, int m) {
 TEST(Render, GuidedAgreesWithNaivePerGhostAndPerLayer) {
     const Scene scene = doubletScene();
     const LensSystem lens = buildSceneLens(scene);
-    Renderer naive(lens, scene, optionsFor(scene, lens, RenderOptions::Mode::Naive));
-    Renderer guided(lens, scene, optionsFor(scene, lens, RenderOptions::Mode::Guided));
+    Renderer naive(lens, scene.lights, optionsFor(scene, lens, RenderOptions::Mode::Naive));
+    Renderer guided(lens, scene.lights, optionsFor(scene, lens, RenderOptions::Mode::Guided));
     for (int pass = 0; pass < 40; ++pass) naive.runPass();
     for (int pass = 0; pass < 8; ++pass) guided.runPass();
 
@@ -110,7 +110,7 @@ TEST(Render, EveryUnguidedPhotonIsAccountedFor) {
     for (double albedo : {0.0, 1.0}) {
         RenderOptions o = optionsFor(scene, lens, RenderOptions::Mode::Naive);
         o.materials = {albedo, albedo, albedo};
-        Renderer r(lens, scene, o);
+        Renderer r(lens, scene.lights, o);
         r.runPass();
         r.runPass();
         const RenderStatistics& s = r.statistics();
@@ -138,7 +138,7 @@ TEST(Render, EveryUnguidedPhotonIsAccountedFor) {
 TEST(Render, ForcedSequenceAgreesWithThePreview) {
     const Scene scene = doubletScene(0.0);
     const LensSystem lens = buildSceneLens(scene);
-    Renderer guided(lens, scene, optionsFor(scene, lens, RenderOptions::Mode::Guided));
+    Renderer guided(lens, scene.lights, optionsFor(scene, lens, RenderOptions::Mode::Guided));
     for (int pass = 0; pass < 6; ++pass) guided.runPass();
 
     const LightSpec& spec = scene.lights.front();
@@ -193,7 +193,7 @@ TEST(Render, SameSeedSameImageForAnyThreadCount) {
     o.materials = {0.3, 0.3, 0.3};
     auto renderWith = [&](int threads) {
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
-        auto r = std::make_unique<Renderer>(lens, scene, o);
+        auto r = std::make_unique<Renderer>(lens, scene.lights, o);
         r->runPass();
         r->runPass();
         return r;
@@ -205,7 +205,7 @@ TEST(Render, SameSeedSameImageForAnyThreadCount) {
     expectSameRender(*one, *four);
     // A different seed gives a different image.
     o.seed = 18;
-    Renderer other(lens, scene, o);
+    Renderer other(lens, scene.lights, o);
     other.runPass();
     other.runPass();
     EXPECT_NE(other.layerXyz(kLayerGhost), one->layerXyz(kLayerGhost));
@@ -215,17 +215,17 @@ TEST(Render, ResumingFromACheckpointGivesTheUninterruptedImage) {
     const Scene scene = doubletScene();
     const LensSystem lens = buildSceneLens(scene);
     const RenderOptions o = optionsFor(scene, lens, RenderOptions::Mode::Guided);
-    Renderer straight(lens, scene, o);
+    Renderer straight(lens, scene.lights, o);
     for (int pass = 0; pass < 3; ++pass) straight.runPass();
 
     const std::string checkpoint = writeTemp("render.checkpoint", "");
     {
-        Renderer first(lens, scene, o);
+        Renderer first(lens, scene.lights, o);
         first.runPass();
         first.runPass();
         first.saveCheckpoint(checkpoint);
     }
-    Renderer resumed(lens, scene, o);
+    Renderer resumed(lens, scene.lights, o);
     resumed.loadCheckpoint(checkpoint);
     resumed.runPass();
     expectSameRender(straight, resumed);
@@ -233,7 +233,7 @@ TEST(Render, ResumingFromACheckpointGivesTheUninterruptedImage) {
     // A checkpoint of another render is refused with the file named.
     RenderOptions otherSeed = o;
     otherSeed.seed = 99;
-    Renderer other(lens, scene, otherSeed);
+    Renderer other(lens, scene.lights, otherSeed);
     try {
         other.loadCheckpoint(checkpoint);
         FAIL() << "expected InputError";
@@ -250,7 +250,7 @@ TEST(Render, CheckpointWithANonFiniteValueIsRefused) {
     RenderOptions o = optionsFor(scene, lens, RenderOptions::Mode::Guided);
     o.batchPhotons = 64;
     o.batchesPerPass = 2;
-    Renderer first(lens, scene, o);
+    Renderer first(lens, scene.lights, o);
     first.runPass();
     const std::string checkpoint = writeTemp("nan.checkpoint", "");
     first.saveCheckpoint(checkpoint);
@@ -270,12 +270,12 @@ TEST(Render, CheckpointWithANonFiniteValueIsRefused) {
         std::string bad = good;
         std::memcpy(bad.data() + offset, &value, sizeof value);
         std::ofstream(checkpoint, std::ios::binary | std::ios::trunc) << bad;
-        Renderer resumed(lens, scene, o);
+        Renderer resumed(lens, scene.lights, o);
         EXPECT_THROW(resumed.loadCheckpoint(checkpoint), InputError) << "a " << value << " at byte " << offset;
     }
     // The intact file still loads.
     std::ofstream(checkpoint, std::ios::binary | std::ios::trunc) << good;
-    Renderer resumed(lens, scene, o);
+    Renderer resumed(lens, scene.lights, o);
     EXPECT_NO_THROW(resumed.loadCheckpoint(checkpoint));
     std::filesystem::remove(checkpoint);
 }
@@ -288,7 +288,7 @@ TEST(Render, LightBehindTheLensIsSkippedAndReported) {
     behind.positionMm = {0.0, 0.0, 500.0};  // behind the sensor
     scene.lights.push_back(behind);
     const LensSystem lens = buildSceneLens(scene);
-    Renderer r(lens, scene, optionsFor(scene, lens, RenderOptions::Mode::Guided));
+    Renderer r(lens, scene.lights, optionsFor(scene, lens, RenderOptions::Mode::Guided));
     ASSERT_EQ(r.lights().size(), 2u);
     EXPECT_FALSE(r.lights()[0].skipped);
     EXPECT_TRUE(r.lights()[1].skipped);

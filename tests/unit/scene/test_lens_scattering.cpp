@@ -11,6 +11,7 @@
 #include "flare/optics/LensFile.h"
 #include "flare/render/Render.h"
 #include "flare/scene/Scene.h"
+#include "flare/scene/SceneScattering.h"
 #include "TestUtil.h"
 
 namespace flare {

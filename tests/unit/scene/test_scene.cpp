@@ -16,8 +16,8 @@
 #include "flare/optics/Glass.h"
 #include "flare/optics/Paraxial.h"
 #include "flare/optics/RealRays.h"
-#include "flare/scene/Scene.h"
 #include "flare/optics/SequentialTracer.h"
+#include "flare/scene/Scene.h"
 
 namespace flare {
 namespace {

@@ -1,0 +1,27 @@
+#include "flare/photons/Light.h"
+
+#include <cmath>
+#include <numbers>
+
+#include <glm/geometric.hpp>
+
+namespace flare {
+
+Spectrum toSpectrum(const SpectrumSpec& spec) {
+    switch (spec.kind) {
+        case SpectrumSpec::Kind::Blackbody: return Spectrum::blackbody(spec.temperatureK);
+        case SpectrumSpec::Kind::D65: return Spectrum::d65();
+        case SpectrumSpec::Kind::EqualEnergy: return Spectrum::equalEnergy();
+    }
+    return Spectrum::equalEnergy();
+}
+
+glm::dvec3 LightSpec::travelDirection() const {
+    if (type == Type::Directional) {
+        constexpr double kDegToRad = std::numbers::pi / 180.0;
+        return glm::normalize(glm::dvec3(-std::tan(fieldXDeg * kDegToRad), -std::tan(fieldYDeg * kDegToRad), 1.0));
+    }
+    return glm::normalize(-positionMm);
+}
+
+}  // namespace flare

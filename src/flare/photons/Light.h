@@ -1,0 +1,55 @@
+// A light as a scene describes it: directional (the sun, a distant lamp), a point at a finite
+// distance, or a Lambertian disk; where it is, how large it looks, its spectral shape and power.
+// Plain data, read from scenes (scene/Scene.h) and used by the samplers of the preview and the
+// photon tracer.
+#pragma once
+
+#include <string>
+
+#include <glm/vec3.hpp>
+
+#include "flare/core/Spectrum.h"
+
+namespace flare {
+
+// The spectral shape of a light. Only the shape: the light's `power` sets the amount.
+struct SpectrumSpec {
+    enum class Kind { Blackbody, D65, EqualEnergy };
+    Kind kind = Kind::Blackbody;
+    double temperatureK = 5778.0;  // Blackbody only (5778 K: the sun's effective temperature)
+};
+
+// The spectral shape a SpectrumSpec names.
+Spectrum toSpectrum(const SpectrumSpec& spec);
+
+struct LightSpec {
+    enum class Type { Directional, Point, Disk };
+    Type type = Type::Directional;
+    std::string name;  // unique within the scene; default "light<index>"
+
+    // Directional: where the light appears in the picture, as field angles (x to the right, y up,
+    // as the photographer sees the scene). Each in [-89.9, 89.9]; outside the frame is allowed
+    // (light from outside the frame still flares). angularDiameterDeg: full apparent diameter
+    // (the sun: 0.53°), 0 for a perfectly collimated source.
+    double fieldXDeg = 0.0, fieldYDeg = 0.0, angularDiameterDeg = 0.0;
+
+    // Point and Disk: position in lens space (mm; z < 0 is in front of the first vertex).
+    // Disk: a Lambertian disk of radius radiusMm whose normal points at the first vertex.
+    glm::dvec3 positionMm{0.0, 0.0, -1000.0};
+    double radiusMm = 0.0;
+
+    SpectrumSpec spectrum;
+    // Directional: irradiance on a plane normal to the rays, W/m². Point: radiant intensity,
+    // W/sr. Disk: radiant intensity along its normal (towards the lens), W/sr. Integrated over
+    // the spectrum; 1 is a convenient relative unit, since every output scales linearly with it.
+    double power = 1.0;
+
+    // Unit direction in which the light's rays travel (z > 0: towards the sensor). Directional:
+    // normalize(−tan fieldX, −tan fieldY, 1) — a light seen up and to the right sends its rays
+    // down and to the left. Point and Disk: from the position towards the first vertex (0, 0, 0).
+    glm::dvec3 travelDirection() const;
+    // Disk: the unit normal of the emitting face (equal to travelDirection(): it faces the lens).
+    glm::dvec3 diskNormal() const { return travelDirection(); }
+};
+
+}  // namespace flare
