@@ -53,10 +53,24 @@ namespace {
 // Keeps the optimiser from dropping reads whose only purpose is to let ASan check them.
 volatile double gSink = 0.0;
 
-std::string tempPath(const char* extension) {
-    return (std::filesystem::temp_directory_path() /
-            ("flare_fuzz_" + std::to_string(::getpid()) + extension)).string();
-}
+// A file of this process that the loaders read the input from (they take paths), rewritten for
+// every input and removed when the process exits, so a replay in the suite leaves nothing behind.
+class TempFile {
+public:
+    explicit TempFile(const char* extension)
+        : path_((std::filesystem::temp_directory_path() / ("flare_fuzz_" + std::to_string(::getpid()) + extension))
+                    .string()) {}
+    ~TempFile() {
+        std::error_code ec;
+        std::filesystem::remove(path_, ec);
+    }
+    TempFile(const TempFile&) = delete;
+    TempFile& operator=(const TempFile&) = delete;
+    const std::string& path() const { return path_; }
+
+private:
+    std::string path_;
+};
 
 void writeFile(const std::string& path, std::string_view data) {
     std::ofstream out(path, std::ios::binary | std::ios::trunc);
@@ -179,7 +193,8 @@ bool declaresAttributeLongerThanFile(std::string_view data) {
 
 void exrInput(std::string_view data) {
     if (declaresAttributeLongerThanFile(data)) return;
-    static const std::string path = tempPath(".exr");
+    static const TempFile file(".exr");
+    const std::string& path = file.path();
     writeFile(path, data);
     try {
         for (const ImageLayer& layer : readExr(path)) touch(layer.rgb);
@@ -201,7 +216,8 @@ struct LeakCheckDisabler {
 }  // namespace
 
 void vdbInput(std::string_view data) {
-    static const std::string path = tempPath(".vdb");
+    static const TempFile file(".vdb");
+    const std::string& path = file.path();
     writeFile(path, data);
     VolumeGrid grid;
     try {
@@ -244,7 +260,8 @@ void checkpointInput(std::string_view data) {
         touch(film.varianceRgb());
         return;
     }
-    static const std::string path = tempPath(".checkpoint");
+    static const TempFile file(".checkpoint");
+    const std::string& path = file.path();
     writeFile(path, data);
     try {
         f.renderer->loadCheckpoint(path);

@@ -17,10 +17,17 @@
 
 namespace flare::test {
 
-// A scratch directory of this test process: ctest runs tests in parallel, one process each, and
-// tests that share a helper writing fixed file names must not overwrite each other's files.
+// The scratch root of this test process, <tmp>/flare_tests-<pid>: ctest runs tests in parallel,
+// one process each, and tests that share a helper writing fixed file names must not overwrite
+// each other's files. A global test environment (ScratchCleanup.cpp) removes it when the process's
+// tests end, so a run leaves the temporary directory as it found it.
+inline std::filesystem::path scratchRoot() {
+    return std::filesystem::temp_directory_path() / ("flare_tests-" + std::to_string(::getpid()));
+}
+
+// A scratch directory `name` under this process's scratch root, created if needed.
 inline std::filesystem::path processTempDir(const std::string& name) {
-    const auto dir = std::filesystem::temp_directory_path() / (name + "-" + std::to_string(::getpid()));
+    const auto dir = scratchRoot() / name;
     std::filesystem::create_directories(dir);
     return dir;
 }

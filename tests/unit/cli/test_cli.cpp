@@ -38,7 +38,7 @@ TEST(Cli, LensInfoZoomAndWavelength) {
 }
 
 TEST(Cli, LensDrawWritesAnSvg) {
-    const std::string out = testing::TempDir() + "/flare_cli_lens.svg";
+    const std::string out = (test::processTempDir("cli") / "lens.svg").string();
     std::remove(out.c_str());
     const CliRun r = run("lens draw " + test::sourcePath("lenses/double-gauss-50mm.lens") + " -o " + out + " --rays 5 --field 10");
     ASSERT_EQ(r.exitCode, 0) << r.out;
@@ -51,7 +51,7 @@ TEST(Cli, LensDrawWritesAnSvg) {
 }
 
 TEST(Cli, LensDrawGhostPathsAndRejectsNonGhosts) {
-    const std::string out = testing::TempDir() + "/flare_cli_ghost.svg";
+    const std::string out = (test::processTempDir("cli") / "ghost.svg").string();
     std::remove(out.c_str());
     const CliRun r = run("lens draw double-gauss-50mm --ghost 7,3 --field 5 --rays 5 -o " + out);
     ASSERT_EQ(r.exitCode, 0) << r.out;
@@ -61,7 +61,7 @@ TEST(Cli, LensDrawGhostPathsAndRejectsNonGhosts) {
     EXPECT_NE(svg.str().find("#e377c2"), std::string::npos);  // the ghost rays' colour
     EXPECT_NE(svg.str().find("ghost 7-3"), std::string::npos);
     // Two reflections name one ghost in either order, titled as the light meets them.
-    const std::string swapped = testing::TempDir() + "/flare_cli_ghost_swapped.svg";
+    const std::string swapped = (test::processTempDir("cli") / "ghost_swapped.svg").string();
     ASSERT_EQ(run("lens draw double-gauss-50mm --ghost 3,7 --field 5 --rays 5 -o " + swapped).exitCode, 0);
     std::ifstream inSwapped(swapped);
     std::stringstream svgSwapped;
@@ -92,9 +92,9 @@ TEST(Cli, GhostsJsonHasTheDocumentedKeys) {
 }
 
 TEST(Cli, PreviewOfTheDefaultSceneWritesExrAndPng) {
-    const std::string exr = testing::TempDir() + "/flare_cli_preview.exr";
-    const std::string png = testing::TempDir() + "/flare_cli_preview.png";
-    const std::string scene = testing::TempDir() + "/flare_cli_small.json";
+    const std::string exr = (test::processTempDir("cli") / "preview.exr").string();
+    const std::string png = (test::processTempDir("cli") / "preview.png").string();
+    const std::string scene = (test::processTempDir("cli") / "small.json").string();
     // The default scene at a quarter of its resolution, to keep the test quick.
     std::ofstream(scene) << R"({"lens": "double-gauss-50mm", "f_number": 4,
         "sensor": {"resolution": [384, 256]},
@@ -112,9 +112,9 @@ TEST(Cli, PreviewOfTheDefaultSceneWritesExrAndPng) {
 }
 
 TEST(Cli, BadLensFileExitsWithCodeTwoAndNamesFileAndLine) {
-    const std::string path = testing::TempDir() + "/flare_cli_bad.lens";
+    const std::string path = (test::processTempDir("cli") / "bad.lens").string();
     std::ofstream(path) << "name bad\nfocal_length_mm 50\nsurfaces\n40 5 UNOBTAINIUM 10\nstop 2 air 8\n-60 auto air 10\n";
-    const std::string svg = testing::TempDir() + "/flare_cli_bad.svg";
+    const std::string svg = (test::processTempDir("cli") / "bad.svg").string();
     std::remove(svg.c_str());
     const CliRun r = run("lens draw " + path + " -o " + svg);
     EXPECT_EQ(r.exitCode, 2);
