@@ -157,7 +157,9 @@ int run(const RenderCommandOptions& o) {
     const LensSystem lens = buildSceneLens(scene);
 
     RenderOptions options;
-    options.mode = o.mode == "naive" ? RenderOptions::Mode::Naive : RenderOptions::Mode::Guided;
+    options.mode = o.mode == "naive"     ? RenderOptions::Mode::Naive
+                   : o.mode == "photons" ? RenderOptions::Mode::GuidedPhotons
+                                         : RenderOptions::Mode::Guided;
     options.seed = o.seed >= 0 ? static_cast<std::uint64_t>(o.seed) : scene.render.seed;
     options.maxBounces = o.maxBounces >= -1 ? o.maxBounces : scene.render.maxBounces;
     options.perGhostLayers = o.layers;
@@ -277,8 +279,10 @@ void addRenderCommand(CLI::App& app) {
     CLI::App* render = app.add_subcommand("render", "physically based render by photon tracing (EXR with layers)");
     render->add_option("SCENE", o->scene, "scene file (JSON); default: the embedded default scene");
     render->add_option("-o,--output", o->exr, "EXR file to write")->required();
-    render->add_option("--mode", o->mode, "guided (default) or naive (the unguided tracer alone)")
-        ->check(CLI::IsMember({"naive", "guided"}));
+    render->add_option("--mode", o->mode,
+                       "guided (default: beams and photons), photons (guided photons only) or naive (the unguided "
+                       "tracer alone)")
+        ->check(CLI::IsMember({"naive", "guided", "photons"}));
     auto* photons = render->add_option("--photons", o->photons, "photons to trace (default: the scene's)")
                         ->check(CLI::PositiveNumber);
     render->add_option("--time", o->timeS, "trace for this many seconds instead of a photon count")

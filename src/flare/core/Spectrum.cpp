@@ -42,7 +42,8 @@ constexpr double kBoltzmannJk = 1.380649e-23;
 constexpr double kC2NmK = kPlanckJs * kLightSpeedMs / kBoltzmannJk * 1e9;
 
 constexpr double kNormalisationNm = 560.0;
-constexpr int kSamplerBins = kCieCount - 1;  // 1 nm bins over 360–830 nm
+constexpr int kSamplerBins = kWavelengthBins;  // 1 nm bins over 360–830 nm
+static_assert(kSamplerBins == kCieCount - 1);
 
 double interpolate(const double* table, int count, double position) {
     if (position < 0.0 || position > count - 1) return 0.0;
@@ -180,12 +181,21 @@ std::vector<SpectralSample> spectralQuadrature(const Spectrum& spectrum, int cou
     return samples;
 }
 
-WavelengthSampler::WavelengthSampler(const Spectrum& spectrum) : spectrum_(spectrum) {
+WavelengthSampler::WavelengthSampler(const Spectrum& spectrum) : WavelengthSampler(spectrum, {}) {}
+
+WavelengthSampler::WavelengthSampler(const Spectrum& spectrum, std::span<const double> importancePerNm)
+    : spectrum_(spectrum) {
+    assert(importancePerNm.empty() || importancePerNm.size() == static_cast<size_t>(kSamplerBins));
     cdf_.assign(kSamplerBins + 1, 0.0);
     for (int i = 0; i < kSamplerBins; ++i) {
         const double lo = kCieMinNm + i;
         const glm::dvec3 xyz = spectrumXyz(spectrum, lo, lo + 1.0);
-        cdf_[i + 1] = cdf_[i] + std::max(0.0, xyz.x + xyz.y + xyz.z);
+        const double importance = importancePerNm.empty() ? 1.0 : std::max(0.0, importancePerNm[i]);
+        cdf_[i + 1] = cdf_[i] + std::max(0.0, xyz.x + xyz.y + xyz.z) * importance;
+    }
+    if (!(cdf_.back() > 0.0) && !importancePerNm.empty()) {
+        *this = WavelengthSampler(spectrum);
+        return;
     }
     const double total = cdf_.back();
     assert(total > 0.0);

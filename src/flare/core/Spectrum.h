@@ -5,6 +5,7 @@
 #pragma once
 
 #include <string>
+#include <span>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -86,9 +87,16 @@ std::vector<SpectralSample> spectralQuadrature(const Spectrum& spectrum, int cou
 // Photon wavelengths for the stochastic tracer, importance-sampled in proportion to
 // S(λ)·(x̄ + ȳ + z̄)(λ) over 360–830 nm: the density is piecewise constant on 1 nm bins (each
 // bin's exact integral), sampled by inverting its piecewise-linear CDF. A pure function of u.
+// The wavelength sampler's bins: 1 nm wide from kCieMinNm to 830 nm.
+inline constexpr int kWavelengthBins = 470;
+
 class WavelengthSampler {
 public:
     explicit WavelengthSampler(const Spectrum& spectrum);
+    // Draws from S·(x̄ + ȳ + z̄) times an importance per 1 nm bin (kWavelengthBins values from
+    // kCieMinNm; non-negative; all zero counts as none), e.g. a ghost path's throughput over the spectrum, so that samples
+    // go where the path's light is. xyzWeight stays unbiased: it divides by this density.
+    WavelengthSampler(const Spectrum& spectrum, std::span<const double> importancePerNm);
 
     // Wavelength for a uniform u in [0, 1), with its probability density (per nm) if asked.
     double sample(double u, double* pdfPerNm = nullptr) const;

@@ -17,7 +17,7 @@ namespace {
 constexpr int kTilePx = 32;
 constexpr int kCountBlockPx = 8;
 constexpr double kMm2PerM2 = 1e6;
-constexpr std::uint64_t kFilmMagic = 0x31464c4946524c46ull;  // "FLRFILF1"
+constexpr std::uint64_t kFilmMagic = 0x32464c4946524c46ull;  // "FLRFILF2"
 
 template <class T>
 void writeRaw(std::ostream& out, const T& value) {
@@ -74,6 +74,14 @@ struct Film::Tiles {
     }
 };
 
+// One variance group: the current pass's image and the running sums over passes (RGB).
+struct Film::Group {
+    std::unique_ptr<Tiles> pass, sumPasses, sumSquares;
+    explicit Group(int w, int h)
+        : pass(std::make_unique<Tiles>(w, h)), sumPasses(std::make_unique<Tiles>(w, h)),
+          sumSquares(std::make_unique<Tiles>(w, h)) {}
+};
+
 Film::Film(const FilmSettings& settings, int layerCount) : settings_(settings) {
     if (settings.widthPx <= 0 || settings.heightPx <= 0 || !(settings.widthMm > 0.0) || !(settings.heightMm > 0.0))
         throw std::invalid_argument("Film: sizes must be positive");
@@ -84,9 +92,8 @@ Film::Film(const FilmSettings& settings, int layerCount) : settings_(settings) {
         !(settings.progressiveAlpha > 0.0 && settings.progressiveAlpha < 1.0))
         throw std::invalid_argument("Film: invalid kernel settings");
     for (int l = 0; l < layerCount; ++l) layers_.push_back(std::make_unique<Tiles>(settings.widthPx, settings.heightPx));
-    pass_ = std::make_unique<Tiles>(settings.widthPx, settings.heightPx);
-    sumSquares_ = std::make_unique<Tiles>(settings.widthPx, settings.heightPx);
-    sumPasses_ = std::make_unique<Tiles>(settings.widthPx, settings.heightPx);
+    layerGroups_.assign(layerCount, {});
+    groups_.emplace_back(settings.widthPx, settings.heightPx);
     if (settings.kernel == FilmSettings::Kernel::Adaptive) {
         countW_ = (settings.widthPx + kCountBlockPx - 1) / kCountBlockPx;
         countH_ = (settings.heightPx + kCountBlockPx - 1) / kCountBlockPx;
@@ -96,6 +103,19 @@ Film::Film(const FilmSettings& settings, int layerCount) : settings_(settings) {
 }
 
 Film::~Film() = default;
+
+int Film::varianceGroupCount() const { return static_cast<int>(groups_.size()); }
+
+int Film::addVarianceGroup(const std::vector<int>& layers) {
+    if (passes_ > 0) throw std::logic_error("Film::addVarianceGroup after the first pass");
+    const int group = static_cast<int>(groups_.size());
+    groups_.emplace_back(settings_.widthPx, settings_.heightPx);
+    for (int l : layers) {
+        if (l < 0 || l >= layerCount()) throw std::invalid_argument("Film::addVarianceGroup: no layer " + std::to_string(l));
+        layerGroups_[l].push_back(group);
+    }
+    return group;
+}
 Film::Film(Film&&) noexcept = default;
 Film& Film::operator=(Film&&) noexcept = default;
 
@@ -125,8 +145,24 @@ double Film::radiusPx(int layer, const glm::dvec2& sensorMm) const {
     return settings_.radiusPx;
 }
 
-void Film::addKernel(Tiles& tiles, const glm::dvec2& pixel, double radius, const glm::dvec3& value) {
-    const int w = settings_.widthPx, h = settings_.heightPx;
+void Film::addPixel(int layer, bool inTotal, int x, int y, const double* value) {
+    double* p = layers_[layer]->at(x, y);
+    for (int c = 0; c < 3; ++c) p[c] += value[c];
+    if (inTotal) {
+        double* q = groups_[0].pass->at(x, y);
+        for (int c = 0; c < 3; ++c) q[c] += value[c];
+    }
+    for (int g : layerGroups_[layer]) {
+        double* q = groups_[g].pass->at(x, y);
+        for (int c = 0; c < 3; ++c) q[c] += value[c];
+    }
+}
+
+void Film::addKernel(int layer, bool inTotal, const glm::dvec2& pixel, double radius, const glm::dvec3& value,
+                     int rowBegin, int rowEnd) {
+    const int w = settings_.widthPx;
+    rowBegin = std::max(rowBegin, 0);
+    rowEnd = std::min(rowEnd, settings_.heightPx);
     if (radius <= 1.0) {
         // Bilinear tent over the four nearest pixel centres: the weights sum to 1 exactly.
         const double fx = pixel.x - 0.5, fy = pixel.y - 0.5;
@@ -136,9 +172,9 @@ void Film::addKernel(Tiles& tiles, const glm::dvec2& pixel, double radius, const
         for (int dy = 0; dy < 2; ++dy)
             for (int dx = 0; dx < 2; ++dx) {
                 const int x = x0 + dx, y = y0 + dy;
-                if (x < 0 || y < 0 || x >= w || y >= h || weight[dy][dx] == 0.0) continue;
-                double* p = tiles.at(x, y);
-                for (int c = 0; c < 3; ++c) p[c] += weight[dy][dx] * value[c];
+                if (x < 0 || y < rowBegin || x >= w || y >= rowEnd || weight[dy][dx] == 0.0) continue;
+                const double v[3] = {weight[dy][dx] * value[0], weight[dy][dx] * value[1], weight[dy][dx] * value[2]};
+                addPixel(layer, inTotal, x, y, v);
             }
         return;
     }
@@ -154,17 +190,18 @@ void Film::addKernel(Tiles& tiles, const glm::dvec2& pixel, double radius, const
         }
     if (total <= 0.0) return;
     const glm::dvec3 scaled = value / total;
-    for (int y = std::max(yLo, 0); y <= std::min(yHi, h - 1); ++y)
+    for (int y = std::max(yLo, rowBegin); y <= std::min(yHi, rowEnd - 1); ++y)
         for (int x = std::max(xLo, 0); x <= std::min(xHi, w - 1); ++x) {
             const double dx = x + 0.5 - pixel.x, dy = y + 0.5 - pixel.y;
             const double weight = 1.0 - (dx * dx + dy * dy) * inverseR2;
             if (weight <= 0.0) continue;
-            double* p = tiles.at(x, y);
-            for (int c = 0; c < 3; ++c) p[c] += weight * scaled[c];
+            const double v[3] = {weight * scaled[0], weight * scaled[1], weight * scaled[2]};
+            addPixel(layer, inTotal, x, y, v);
         }
 }
 
-void Film::splat(int layer, const glm::dvec2& sensorMm, const glm::dvec3& xyzPowerW, bool inTotal) {
+void Film::splatRows(int layer, const glm::dvec2& sensorMm, const glm::dvec3& xyzPowerW, bool inTotal, int rowBegin,
+                     int rowEnd, bool count) {
     const glm::dvec2 pixel = toPixel(sensorMm);
     // Far off the image (by more than any kernel): nothing to add.
     const double reach = std::max(settings_.radiusPx, settings_.maxRadiusPx) + 1.0;
@@ -172,36 +209,60 @@ void Film::splat(int layer, const glm::dvec2& sensorMm, const glm::dvec3& xyzPow
           pixel.y < settings_.heightPx + reach))
         return;
     const double radius = radiusPx(layer, sensorMm);
-    addKernel(*layers_[layer], pixel, radius, xyzPowerW);
-    if (inTotal) addKernel(*pass_, pixel, radius, xyzPowerW);
-    if (settings_.kernel == FilmSettings::Kernel::Adaptive) {
+    addKernel(layer, inTotal, pixel, radius, xyzPowerW, rowBegin, rowEnd);
+    if (count && settings_.kernel == FilmSettings::Kernel::Adaptive) {
         const int bx = static_cast<int>(pixel.x) / kCountBlockPx, by = static_cast<int>(pixel.y) / kCountBlockPx;
         if (pixel.x >= 0 && pixel.y >= 0 && bx < countW_ && by < countH_)
             ++pendingCounts_[layer][static_cast<size_t>(by) * countW_ + bx];
     }
 }
 
+void Film::splat(int layer, const glm::dvec2& sensorMm, const glm::dvec3& xyzPowerW, bool inTotal) {
+    splatRows(layer, sensorMm, xyzPowerW, inTotal, 0, settings_.heightPx, true);
+}
+
+void Film::splatInBand(int band, int layer, const glm::dvec2& sensorMm, const glm::dvec3& xyzPowerW, bool inTotal) {
+    // The band that counts the photon is the one holding its count block (bands are whole blocks).
+    static_assert(kBandRows % kCountBlockPx == 0 && kBandRows == kTilePx);
+    const double row = toPixel(sensorMm).y;
+    const bool count = row >= band * kBandRows && row < (band + 1) * kBandRows;
+    splatRows(layer, sensorMm, xyzPowerW, inTotal, band * kBandRows, (band + 1) * kBandRows, count);
+}
+
+void Film::addBand(int band, int layer, const double* rows, bool inTotal) {
+    const int w = settings_.widthPx;
+    const int rowBegin = band * kBandRows, rowEnd = std::min(settings_.heightPx, rowBegin + kBandRows);
+    for (int y = rowBegin; y < rowEnd; ++y) {
+        const double* p = rows + static_cast<size_t>(y - rowBegin) * w * 3;
+        for (int x = 0; x < w; ++x, p += 3)
+            if (p[0] != 0.0 || p[1] != 0.0 || p[2] != 0.0) addPixel(layer, inTotal, x, y, p);
+    }
+}
+
 void Film::endPass(std::int64_t photons) {
     const double scale = 1.0 / (static_cast<double>(photons) * pixelMm_ * pixelMm_ / kMm2PerM2);
-    // Only the tiles this pass touched (a tile's pixels are contiguous in it).
-    for (int ty = 0; ty < pass_->tilesY; ++ty)
-        for (int tx = 0; tx < pass_->tilesX; ++tx) {
-            if (!pass_->tiles[static_cast<size_t>(ty) * pass_->tilesX + tx]) continue;
-            const int x1 = std::min((tx + 1) * kTilePx, settings_.widthPx);
-            const int y1 = std::min((ty + 1) * kTilePx, settings_.heightPx);
-            for (int y = ty * kTilePx; y < y1; ++y)
-                for (int x = tx * kTilePx; x < x1; ++x) {
-                    const double* p = pass_->find(x, y);
-                    const glm::dvec3 rgb = xyzToLinearSrgb(glm::dvec3(p[0], p[1], p[2]) * scale);
-                    double* s = sumPasses_->at(x, y);
-                    double* q = sumSquares_->at(x, y);
-                    for (int c = 0; c < 3; ++c) {
-                        s[c] += rgb[c];
-                        q[c] += rgb[c] * rgb[c];
+    for (Group& group : groups_) {
+        Tiles& pass = *group.pass;
+        // Only the tiles this pass touched (a tile's pixels are contiguous in it).
+        for (int ty = 0; ty < pass.tilesY; ++ty)
+            for (int tx = 0; tx < pass.tilesX; ++tx) {
+                if (!pass.tiles[static_cast<size_t>(ty) * pass.tilesX + tx]) continue;
+                const int x1 = std::min((tx + 1) * kTilePx, settings_.widthPx);
+                const int y1 = std::min((ty + 1) * kTilePx, settings_.heightPx);
+                for (int y = ty * kTilePx; y < y1; ++y)
+                    for (int x = tx * kTilePx; x < x1; ++x) {
+                        const double* p = pass.find(x, y);
+                        const glm::dvec3 rgb = xyzToLinearSrgb(glm::dvec3(p[0], p[1], p[2]) * scale);
+                        double* s = group.sumPasses->at(x, y);
+                        double* q = group.sumSquares->at(x, y);
+                        for (int c = 0; c < 3; ++c) {
+                            s[c] += rgb[c];
+                            q[c] += rgb[c] * rgb[c];
+                        }
                     }
-                }
-        }
-    pass_->clear();
+            }
+        pass.clear();
+    }
     counts_ = pendingCounts_;
     ++passes_;
 }
@@ -218,16 +279,17 @@ std::vector<float> Film::irradianceXyz(int layer, double photonsEmitted) const {
     return out;
 }
 
-std::vector<float> Film::varianceRgb() const {
+std::vector<float> Film::varianceRgb(int group) const {
     if (passes_ < 2) return {};
     const int w = settings_.widthPx, h = settings_.heightPx;
     const double n = passes_;
+    const Group& g = groups_.at(group);
     std::vector<float> out(static_cast<size_t>(w) * h * 3, 0.0f);
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
-            const double* s = sumPasses_->find(x, y);
+            const double* s = g.sumPasses->find(x, y);
             if (!s) continue;
-            const double* q = sumSquares_->find(x, y);
+            const double* q = g.sumSquares->find(x, y);
             for (int c = 0; c < 3; ++c) {
                 const double mean = s[c] / n;
                 // Unbiased sample variance of the pass images, divided by n: the variance of their mean.
@@ -238,16 +300,38 @@ std::vector<float> Film::varianceRgb() const {
     return out;
 }
 
+Film::ErrorEstimate Film::errorEstimate(int group) const {
+    ErrorEstimate e;
+    if (passes_ < 2) return e;
+    const double n = passes_;
+    const Group& g = groups_.at(group);
+    for (int y = 0; y < settings_.heightPx; ++y)
+        for (int x = 0; x < settings_.widthPx; ++x) {
+            const double* s = g.sumPasses->find(x, y);
+            if (!s) continue;
+            const double* q = g.sumSquares->find(x, y);
+            for (int c = 0; c < 3; ++c) {
+                const double mean = s[c] / n;
+                e.sumVariance += std::max(0.0, (q[c] - n * mean * mean) / (n - 1.0)) / n;
+                e.squaredNorm += mean * mean;
+            }
+        }
+    return e;
+}
+
 void Film::save(std::ostream& out) const {
     writeRaw(out, kFilmMagic);
     writeRaw<std::int32_t>(out, settings_.widthPx);
     writeRaw<std::int32_t>(out, settings_.heightPx);
     writeRaw<std::int32_t>(out, static_cast<std::int32_t>(settings_.kernel));
     writeRaw<std::int32_t>(out, layerCount());
+    writeRaw<std::int32_t>(out, varianceGroupCount());
     writeRaw<std::int32_t>(out, passes_);
     for (const auto& layer : layers_) layer->save(out);
-    sumPasses_->save(out);
-    sumSquares_->save(out);
+    for (const Group& group : groups_) {
+        group.sumPasses->save(out);
+        group.sumSquares->save(out);
+    }
     for (const auto& counts : counts_) out.write(reinterpret_cast<const char*>(counts.data()), sizeof(std::uint32_t) * counts.size());
 }
 
@@ -255,13 +339,15 @@ void Film::load(std::istream& in) {
     if (readRaw<std::uint64_t>(in) != kFilmMagic) throw std::runtime_error("checkpoint: not a film");
     const int w = readRaw<std::int32_t>(in), h = readRaw<std::int32_t>(in);
     const int kernel = readRaw<std::int32_t>(in), layers = readRaw<std::int32_t>(in);
-    if (w != settings_.widthPx || h != settings_.heightPx || kernel != static_cast<int>(settings_.kernel) || layers != layerCount())
-        throw std::runtime_error("checkpoint: the film's size, kernel or layers differ from this render's");
+    const int groups = readRaw<std::int32_t>(in);
+    if (w != settings_.widthPx || h != settings_.heightPx || kernel != static_cast<int>(settings_.kernel) ||
+        layers != layerCount() || groups != varianceGroupCount())
+        throw std::runtime_error("checkpoint: the film's size, kernel, layers or variance groups differ from this render's");
     const int passes = readRaw<std::int32_t>(in);
     if (passes < 0) throw std::runtime_error("checkpoint: negative pass count");
     // Read everything into fresh buffers first: a bad file leaves this film untouched.
     std::vector<std::unique_ptr<Tiles>> loaded;
-    for (int l = 0; l < layers + 2; ++l) {
+    for (int l = 0; l < layers + 2 * groups; ++l) {
         loaded.push_back(std::make_unique<Tiles>(w, h));
         loaded.back()->load(in);
     }
@@ -270,19 +356,23 @@ void Film::load(std::istream& in) {
         in.read(reinterpret_cast<char*>(c.data()), sizeof(std::uint32_t) * c.size());
         if (!in) throw std::runtime_error("checkpoint: truncated film data");
     }
-    // The pass sums and their squares are written together: a tile in one is a tile in the other.
-    const Tiles& sums = *loaded[layers];
-    const Tiles& squares = *loaded[layers + 1];
-    for (size_t t = 0; t < sums.tiles.size(); ++t)
-        if (static_cast<bool>(sums.tiles[t]) != static_cast<bool>(squares.tiles[t]))
-            throw std::runtime_error("checkpoint: inconsistent variance data");
+    // A group's pass sums and their squares are written together: a tile in one is a tile in the other.
+    for (int g = 0; g < groups; ++g) {
+        const Tiles& sums = *loaded[layers + 2 * g];
+        const Tiles& squares = *loaded[layers + 2 * g + 1];
+        for (size_t t = 0; t < sums.tiles.size(); ++t)
+            if (static_cast<bool>(sums.tiles[t]) != static_cast<bool>(squares.tiles[t]))
+                throw std::runtime_error("checkpoint: inconsistent variance data");
+    }
 
     for (int l = 0; l < layers; ++l) layers_[l] = std::move(loaded[l]);
-    sumPasses_ = std::move(loaded[layers]);
-    sumSquares_ = std::move(loaded[layers + 1]);
+    for (int g = 0; g < groups; ++g) {
+        groups_[g].sumPasses = std::move(loaded[layers + 2 * g]);
+        groups_[g].sumSquares = std::move(loaded[layers + 2 * g + 1]);
+        groups_[g].pass->clear();
+    }
     counts_ = std::move(counts);
     pendingCounts_ = counts_;
-    pass_->clear();
     passes_ = passes;
 }
 

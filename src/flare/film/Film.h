@@ -13,9 +13,17 @@
 // photon's power is conserved exactly on the plane and only the part falling off the image is
 // lost. Memory does not depend on the photon count: layers are tiled, and a tile exists only once
 // a photon has touched it. Work is organised in passes (a fixed number of photons); the spread of
-// the per-pass images of the total gives a per-pixel variance estimate.
+// the per-pass images gives a per-pixel variance estimate, kept for the total of the splats made
+// "in the total" (group 0) and for any further groups of layers (addVarianceGroup), e.g. the flare
+// without the direct image, so that a render can estimate its own error.
+//
+// A pass may be accumulated in parallel by bands of kBandRows rows: the band variants of the
+// adding functions write only their band's rows, whose tiles no other band shares, so threads
+// working on different bands never touch the same memory, and each band receives its additions
+// in the order its caller gives them (the image does not depend on the number of threads).
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <iosfwd>
 #include <memory>
@@ -39,6 +47,8 @@ struct FilmSettings {
 
 class Film {
 public:
+    static constexpr int kBandRows = 32;  // the tile size: a band of rows owns its tiles
+
     // `layerCount` layers, each accumulating XYZ power. Throws std::invalid_argument for a
     // malformed setting (non-square pixels, non-positive sizes).
     Film(const FilmSettings& settings, int layerCount);
@@ -50,10 +60,22 @@ public:
     int layerCount() const { return static_cast<int>(layers_.size()); }
     double pixelMm() const { return pixelMm_; }
     int passes() const { return passes_; }
+    int bandCount() const { return (settings_.heightPx + kBandRows - 1) / kBandRows; }
+
+    // A further variance group: the sum of `layers` (whatever the splats' inTotal). Returns its
+    // index (1, 2, ...; group 0 is the total). Must be called before the first pass.
+    int addVarianceGroup(const std::vector<int>& layers);
+    int varianceGroupCount() const;
 
     // Adds `xyzPowerW` (W, CIE XYZ) arriving at `sensorMm` (lens space) to a layer. When
     // `inTotal`, the power also counts towards the variance of the total image.
     void splat(int layer, const glm::dvec2& sensorMm, const glm::dvec3& xyzPowerW, bool inTotal = true);
+    // The part of that splat that falls in band `band`'s rows (a photon near a band's edge is
+    // given to both bands). The adaptive kernel's photon count goes to the band of the photon's row.
+    void splatInBand(int band, int layer, const glm::dvec2& sensorMm, const glm::dvec3& xyzPowerW, bool inTotal = true);
+    // Adds a band of pixel values (W per pixel, XYZ): `rows` holds kBandRows rows (fewer in the
+    // last band) of width × 3 doubles from the band's first row. Zeros are skipped.
+    void addBand(int band, int layer, const double* rows, bool inTotal = true);
     // Ends a pass of `photons` photons (the divisor of this pass's image in the variance estimate;
     // every pass of a render must have the same count for the variance to be meaningful).
     void endPass(std::int64_t photons);
@@ -61,9 +83,17 @@ public:
     // Irradiance of a layer, W/m² in XYZ, interleaved, row-major from the top row, after
     // `photonsEmitted` photons in all: accumulated power / (photons · pixel area).
     std::vector<float> irradianceXyz(int layer, double photonsEmitted) const;
-    // Per-pixel variance of the total image's irradiance estimate (linear Rec.709 RGB, (W/m²)²),
-    // from the spread between passes. Empty before two passes.
-    std::vector<float> varianceRgb() const;
+    // Per-pixel variance of a variance group's irradiance estimate (group 0: the total image;
+    // linear Rec.709 RGB, (W/m²)²), from the spread between passes. Empty before two passes.
+    std::vector<float> varianceRgb(int group = 0) const;
+    // The group's estimated relative L2 error: sqrt(Σ variance) / ‖mean image‖ over every pixel
+    // and RGB channel, the quantity `flare compare` measures against a reference; with the sum
+    // of variances and the squared norm (both in (W/m²)²). Zero before two passes.
+    struct ErrorEstimate {
+        double sumVariance = 0.0, squaredNorm = 0.0;
+        double relative() const { return squaredNorm > 0.0 ? std::sqrt(sumVariance / squaredNorm) : 0.0; }
+    };
+    ErrorEstimate errorEstimate(int group) const;
     // Kernel radius (px) a photon landing now at `sensorMm` in `layer` would get.
     double radiusPx(int layer, const glm::dvec2& sensorMm) const;
 
@@ -78,15 +108,21 @@ public:
 
 private:
     struct Tiles;
-    void addKernel(Tiles& tiles, const glm::dvec2& pixel, double radius, const glm::dvec3& value);
+    struct Group;
+    // Adds the kernel's weights × value for the pixels of rows [rowBegin, rowEnd) to `layer` and
+    // its groups (the total if inTotal).
+    void addKernel(int layer, bool inTotal, const glm::dvec2& pixel, double radius, const glm::dvec3& value,
+                   int rowBegin, int rowEnd);
+    void addPixel(int layer, bool inTotal, int x, int y, const double* value);
+    void splatRows(int layer, const glm::dvec2& sensorMm, const glm::dvec3& xyzPowerW, bool inTotal, int rowBegin,
+                   int rowEnd, bool count);
 
     FilmSettings settings_;
     double pixelMm_ = 0.0;
     int passes_ = 0;
     std::vector<std::unique_ptr<Tiles>> layers_;
-    std::unique_ptr<Tiles> pass_;          // the current pass of the total
-    std::unique_ptr<Tiles> sumSquares_;    // Σ over passes of (pass image in RGB)²
-    std::unique_ptr<Tiles> sumPasses_;     // Σ over passes of the pass image (RGB)
+    std::vector<Group> groups_;                 // 0: the total
+    std::vector<std::vector<int>> layerGroups_; // per layer: the groups ≥ 1 it belongs to
     // Adaptive kernel: photon counts per layer on a grid of kCountBlock² pixel blocks.
     std::vector<std::vector<std::uint32_t>> counts_, pendingCounts_;
     int countW_ = 0, countH_ = 0;

@@ -40,6 +40,15 @@ public:
         if (!(x >= 0.0 && y >= 0.0 && x < cellsA_ && y < cellsB_)) return false;
         return live_[static_cast<size_t>(y) * cellsA_ + static_cast<size_t>(x)] != 0;
     }
+    // The mask's grid of cells: the cell (i, j) spans [aMin + i·cell, aMin + (i + 1)·cell) ×
+    // [bMin + j·cell, ...); liveCell is false outside the grid.
+    double aMinMm() const { return aMinMm_; }
+    double bMinMm() const { return bMinMm_; }
+    int cellsA() const { return cellsA_; }
+    int cellsB() const { return cellsB_; }
+    bool liveCell(int i, int j) const {
+        return i >= 0 && j >= 0 && i < cellsA_ && j < cellsB_ && live_[static_cast<size_t>(j) * cellsA_ + i] != 0;
+    }
     // A point uniform over the live cells, from three uniform numbers in [0, 1): density
     // 1 / areaMm2() on the mask.
     glm::dvec2 sample(double uCell, double ua, double ub) const {

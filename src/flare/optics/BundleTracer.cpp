@@ -36,9 +36,10 @@ double sensorMargin(const LensSystem& lens, const glm::dvec2& sensorMm) {
 
 // The event sequence of a path does not depend on the ray (only whether the ray survives each
 // event does), so it is unrolled once here, following tracePath's control flow step by step.
-InterfaceTables::InterfaceTables(const LensSystem& lens, const SpectralIndices& indices)
-    : lens_(&lens), indices_(indices), tables_(static_cast<size_t>(lens.surfaceCount()) * 4) {
-    const double h = 1.0 / kIntervals;
+InterfaceTables::InterfaceTables(const LensSystem& lens, const SpectralIndices& indices, int intervals)
+    : lens_(&lens), indices_(indices), intervals_(std::max(intervals, 1)),
+      tables_(static_cast<size_t>(lens.surfaceCount()) * 4) {
+    const double h = 1.0 / intervals_;
     for (int k = 0; k < lens.surfaceCount(); ++k) {
         if (lens.surface(k).isStop) continue;
         for (int direction : {-1, 1}) {
@@ -61,13 +62,13 @@ InterfaceTables::InterfaceTables(const LensSystem& lens, const SpectralIndices& 
                 Table& t = tables_[(static_cast<size_t>(k) * 2 + (direction > 0 ? 1 : 0)) * 2 + (reflect ? 1 : 0)];
                 t.exactFrom = exactFrom;
                 t.exactTo = exactTo;
-                t.value.resize(kIntervals + 1);
-                t.slope.resize(kIntervals + 1);
+                t.value.resize(intervals_ + 1);
+                t.slope.resize(intervals_ + 1);
                 // Slopes by central differences (one-sided at the ends): with a step of 1e-6 the
                 // rounding error (~1e-10) and the truncation error (~1e-12 times the third
                 // derivative) of a slope move the interpolant by about 1e-13.
                 constexpr double d = 1e-6;
-                for (int i = 0; i <= kIntervals; ++i) {
+                for (int i = 0; i <= intervals_; ++i) {
                     const double c = i * h;
                     t.value[i] = f(c);
                     const double lo = std::max(0.0, c - d), hi = std::min(1.0, c + d);
@@ -84,9 +85,9 @@ double InterfaceTables::lookup(const Table& t, int surface, int direction, bool 
         const FresnelTerms exact = interfaceResponse(*lens_, indices_, surface, direction, c);
         return reflect ? exact.reflectance() : exact.transmittance();
     }
-    const double x = c * kIntervals;
-    const int i = std::min(static_cast<int>(x), kIntervals - 1);
-    const double u = x - i, h = 1.0 / kIntervals;
+    const double x = c * intervals_;
+    const int i = std::min(static_cast<int>(x), intervals_ - 1);
+    const double u = x - i, h = 1.0 / intervals_;
     // Cubic Hermite basis on [i, i + 1].
     const double u2 = u * u, u3 = u2 * u;
     return (2 * u3 - 3 * u2 + 1) * t.value[i] + (u3 - 2 * u2 + u) * h * t.slope[i] + (-2 * u3 + 3 * u2) * t.value[i + 1] +

@@ -56,18 +56,19 @@ double sensorMargin(const LensSystem& lens, const glm::dvec2& sensorMm);
 // costs a sincos and a dozen divisions, a table lookup a few multiplications. Cubic Hermite
 // interpolation on 1024 intervals; within a few intervals of the critical angle of total
 // internal reflection (where the response has a square-root edge) the exact response is used.
-// The tables agree with interfaceResponse to about 1e-12 relative (checked in the tests).
+// The tables agree with interfaceResponse to about 1e-12 relative (checked in the tests). Fewer
+// intervals build faster for a one-off wavelength (the final render's beams use 64).
 class InterfaceTables {
 public:
-    InterfaceTables(const LensSystem& lens, const SpectralIndices& indices);
+    static constexpr int kDefaultIntervals = 1024;
+    InterfaceTables(const LensSystem& lens, const SpectralIndices& indices, int intervals = kDefaultIntervals);
     // interfaceResponse(lens, indices, surface, direction, cosThetaI).reflectance() / .transmittance().
     double reflectance(int surface, int direction, double cosThetaI) const;
     double transmittance(int surface, int direction, double cosThetaI) const;
 
 private:
-    static constexpr int kIntervals = 1024;
     struct Table {
-        std::vector<double> value, slope;  // at cos = i / kIntervals
+        std::vector<double> value, slope;  // at cos = i / intervals_
         double exactFrom = 2.0, exactTo = -1.0;  // evaluate exactly in this range of cosines
     };
     double lookup(const Table& t, int surface, int direction, bool reflect, double cosThetaI) const;
@@ -77,6 +78,7 @@ private:
 
     const LensSystem* lens_;
     SpectralIndices indices_;
+    int intervals_ = kDefaultIntervals;
     std::vector<Table> tables_;  // per surface, direction, reflect/transmit
 };
 

@@ -3,19 +3,24 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <fstream>
+#include <memory>
+#include <numbers>
 #include <unordered_map>
 
+#include <boost/random/sobol.hpp>
 #include <glm/geometric.hpp>
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include "flare/core/Error.h"
 #include "flare/ghosts/GuideMask.h"
 #include "flare/optics/SequentialTracer.h"
 #include "flare/photons/LightSampler.h"
+#include "flare/render/GhostBeam.h"
 
 namespace flare {
 
@@ -29,6 +34,15 @@ const char* renderLayerName(int layer) {
     }
 }
 
+const char* toString(PathStrategy strategy) {
+    switch (strategy) {
+        case PathStrategy::Unguided: return "unguided";
+        case PathStrategy::Photons: return "photons";
+        case PathStrategy::Beams: return "beams";
+    }
+    return "?";
+}
+
 namespace {
 
 constexpr double kMm2PerM2 = 1e6;
@@ -37,6 +51,12 @@ constexpr double kMm2PerM2 = 1e6;
 // ghost's landings by up to about a millimetre on a full-frame sensor.
 constexpr int kGuideGrowCells = 4;
 constexpr double kGuideSensorMargin = 0.1;
+// A beam-rendered path's wavelengths are drawn in proportion to the light's spectrum times the
+// throughput of one ray of the path, plus this share of its mean: coatings make a ghost's colour,
+// and the floor keeps every wavelength possible.
+constexpr double kSpectralFloor = 0.1;
+constexpr int kBeamDimensions = 5;  // wavelength, direction (2), film-kernel jitter (2)
+constexpr int kBeamTableIntervals = 128;
 
 struct Hit {
     float xMm, yMm;
@@ -44,6 +64,26 @@ struct Hit {
     std::int16_t layer;
     std::int32_t ghostLayer;  // −1: none
 };
+
+// Shirley and Chiu's concentric map of the unit square onto the unit disk, as (r², φ / 2π): the
+// uniforms LightSampler::rayThrough takes for a point of the light's disk. It keeps the
+// stratification of the square (neighbouring strata map to neighbouring parts of the disk).
+glm::dvec2 concentricToPolarUniforms(double s, double t) {
+    const double a = 2.0 * s - 1.0, b = 2.0 * t - 1.0;
+    if (a == 0.0 && b == 0.0) return {0.0, 0.0};
+    double r = 0.0, phi = 0.0;
+    if (std::abs(a) > std::abs(b)) {
+        r = a;
+        phi = 0.25 * std::numbers::pi * (b / a);
+    } else {
+        r = b;
+        phi = 0.5 * std::numbers::pi - 0.25 * std::numbers::pi * (a / b);
+    }
+    if (r < 0.0) r = -r, phi += std::numbers::pi;
+    double u2 = phi / (2.0 * std::numbers::pi);
+    u2 -= std::floor(u2);
+    return {std::min(r * r, std::nextafter(1.0, 0.0)), std::min(u2, std::nextafter(1.0, 0.0))};
+}
 
 }  // namespace
 
@@ -53,9 +93,15 @@ struct Renderer::LightState {
     GhostReport report;
     // Slots: 0 the direct image, 1..G the enumerated ghosts in report order.
     std::unordered_map<PathKey, int> slotOfKey;
-    std::vector<GuideMask> masks;   // per slot; empty where the slot is not guided
-    std::vector<int> ghostLayer;    // per slot: per-ghost film layer, −1 if none
-    int tallyOffset = 0;            // tallies: offset + slot, then higher, then scatter
+    std::vector<GuideMask> masks;           // per slot; empty where the slot is not guided
+    std::vector<int> ghostLayer;            // per slot: per-ghost film layer, −1 if none
+    std::vector<PathStrategy> strategy;     // per slot
+    std::vector<int> layer;                 // per slot: the fixed layer its light lands in
+    // Beam-rendered slots: the wavelength sampler weighted by the path's throughput, and the
+    // number of beams per pass.
+    std::vector<std::unique_ptr<WavelengthSampler>> beamWavelengths;
+    std::vector<int> beamsPerPass;
+    int tallyOffset = 0;                    // tallies: offset + slot, then higher, then scatter
     int slots = 0;
 
     int higherTally() const { return tallyOffset + slots; }
@@ -78,6 +124,18 @@ struct Renderer::BatchResult {
     RenderStatistics statistics;    // photon counts and fates of this batch
 };
 
+// One beam of one path in one pass, and what it produced.
+struct Renderer::BeamJob {
+    int light = 0, slot = 0, index = 0;  // index: the beam's number within the path's pass
+    GhostBeam beam;
+    glm::dvec2 jitterPx{0.0};
+    glm::dvec3 scale{0.0};     // film units per unit irradiance × pupil area
+    std::uint64_t seed = 0;    // the small triangles' random points
+    std::vector<Hit> hits;     // correction photons (+) and their twins (−)
+    double powerY = 0.0;       // the beam's Y power on the sensor plus its corrections (W)
+    std::int64_t photons = 0;
+};
+
 Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights, const RenderOptions& options)
     : lens_(&lens), options_(options), indexTable_(lens),
       tracer_(lens, options.materials, options.maxBounces, options.contamination, options.media),
@@ -88,11 +146,16 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
     const bool anyScattering = m.housingAlbedo + m.edgeAlbedo + m.irisAlbedo + m.housingGlossy + m.edgeGlossy +
                                        m.irisGlossy > 0.0 ||
                                tracer_.hasContamination() || tracer_.hasMedia();
+    // Beams are splatted with the fixed 1-px tent: other kernels leave the ghosts to photons.
+    const bool beamsPossible = options.mode == RenderOptions::Mode::Guided &&
+                               options.film.kernel == FilmSettings::Kernel::Fixed && options.film.radiusPx <= 1.0;
+    const FilmFrame frame{options.film.widthPx, options.film.heightPx, options.film.widthMm, options.film.heightMm,
+                          options.film.widthMm / options.film.widthPx};
 
     std::vector<double> lightWeight;
     for (const LightSpec& spec : lights) {
         LightState state{LightSampler(spec, lens), WavelengthSampler(toSpectrum(spec.spectrum)),
-                         analyseGhosts(lens, spec.travelDirection(), options.analysis), {}, {}, {}, 0, 0};
+                         analyseGhosts(lens, spec.travelDirection(), options.analysis), {}, {}, {}, {}, {}, {}, {}, 0, 0};
         LightPlan plan;
         plan.name = spec.name;
         const GhostReport& report = state.report;
@@ -142,18 +205,87 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
 
         state.masks.resize(state.slots);
         state.ghostLayer.assign(state.slots, -1);
-        if (options.mode == RenderOptions::Mode::Guided && !plan.skipped) {
+        state.strategy.assign(state.slots, PathStrategy::Unguided);
+        state.layer.assign(state.slots, kLayerGhost);
+        state.layer[0] = kLayerDirect;
+        for (int slot = 1; slot < state.slots; ++slot)
+            if (report.ghosts[slot - 1].path.reflections.size() > 2) state.layer[slot] = kLayerHigher;
+        state.beamWavelengths.resize(state.slots);
+        state.beamsPerPass.assign(state.slots, 0);
+        std::vector<double> beamWeight(state.slots, 0.0);
+        if (options.mode != RenderOptions::Mode::Naive && !plan.skipped) {
             // Guide masks: the analysed regions re-traced with a margin around the sensor (see
             // GuideMask::traced), in parallel over paths; each mask is a pure function of its path.
             const SpectralIndices indices = lens.indicesAt(options.analysis.wavelengthNm);
             const double marginMm = kGuideSensorMargin * lens.sensorHalfDiagonalMm();
+            const bool beamLight = beamsPossible && spec.type == LightSpec::Type::Directional;
             tbb::parallel_for(0, state.slots, [&](int slot) {
                 const GhostEstimate& estimate = slot == 0 ? report.direct : report.ghosts[slot - 1];
                 if (slot > 0 && estimate.pruned) return;
                 state.masks[slot] = GuideMask::traced(lens, indices, report.grid, estimate.path, estimate.pupil,
                                                       kGuideGrowCells, marginMm);
+                if (state.masks[slot].empty()) return;
+                state.strategy[slot] = PathStrategy::Photons;
+                if (slot == 0 || !beamLight || estimate.lattice.empty()) return;
+                // A beam at the analysis's wavelength and the light's central direction measures
+                // what the path's beams will cost and how uneven its image is (Σ power² / area:
+                // its squared L2 norm for a point source, which caustics dominate); beams then go
+                // to the paths in proportion to √(that / cost), which minimises the summed
+                // variance for a given time if a beam's variance follows that norm.
+                const BundleTracer probeTracer(lens, indices, estimate.path.reflections);
+                PupilRemeshOptions remesh;
+                remesh.minLevel = options.beamMeshLevel;
+                const GhostBeam probe = GhostBeam::build(probeTracer, report.grid, estimate.lattice, state.masks[slot],
+                                                         frame, remesh);
+                if (probe.empty()) return;
+                double squaredNorm = 0.0, imageAreaPx2 = 0.0;
+                for (const BeamTriangle& t : probe.triangles()) {
+                    const double power = t.pupilAreaMm2 * (t.throughput[0] + t.throughput[1] + t.throughput[2]) / 3.0;
+                    const double area = t.small ? 1.0 : std::max(t.imageAreaPx2, 1.0);
+                    squaredNorm += power * power / area;
+                    imageAreaPx2 += t.small ? 0.0 : t.imageAreaPx2;
+                }
+                // Cost in units of a traced ray: rasterising a pixel costs about a tenth of one.
+                const double cost = static_cast<double>(probe.tracedRays()) + 0.1 * imageAreaPx2 +
+                                    options.correctionPhotonsPerBeam * 2.0;
+                beamWeight[slot] = std::sqrt(squaredNorm / cost);
+                // Wavelengths where the path's coatings reflect: one ray through the middle of
+                // the live region, traced at every nanometre.
+                const LivePupilRegion& region = estimate.pupil;
+                glm::dvec2 centre(0.0);
+                int live = 0;
+                for (int j = 0; j < region.cellsB; ++j)
+                    for (int i = 0; i < region.cellsA; ++i)
+                        if (region.live[static_cast<size_t>(j) * region.cellsA + i]) {
+                            centre += glm::dvec2(region.aMinMm + (i + 0.5) * region.cellMm,
+                                                 region.bMinMm + (j + 0.5) * region.cellMm);
+                            ++live;
+                        }
+                centre /= std::max(live, 1);
+                SequentialPath sequence;
+                sequence.reflections = estimate.path.reflections;
+                std::vector<double> importance(kWavelengthBins, 0.0);
+                double mean = 0.0;
+                for (int i = 0; i < kWavelengthBins; ++i) {
+                    const TraceResult r = tracePath(lens, lens.indicesAt(kCieMinNm + i + 0.5),
+                                                    report.grid.ray(centre.x, centre.y), sequence);
+                    importance[i] = r.ok() ? r.throughput : 0.0;
+                    mean += importance[i] / kWavelengthBins;
+                }
+                for (double& v : importance) v += kSpectralFloor * mean;
+                state.beamWavelengths[slot] =
+                    std::make_unique<WavelengthSampler>(toSpectrum(spec.spectrum), importance);
+                state.strategy[slot] = PathStrategy::Beams;
             });
         }
+        double totalBeamWeight = 0.0;
+        for (double w : beamWeight) totalBeamWeight += w;
+        for (int slot = 1; slot < state.slots; ++slot)
+            if (state.strategy[slot] == PathStrategy::Beams) {
+                state.beamsPerPass[slot] = std::max(
+                    1, static_cast<int>(std::lround(options.beamsPerPass * beamWeight[slot] / totalBeamWeight)));
+                ++plan.beamGhosts;
+            }
         for (size_t g = 0; g < report.ghosts.size(); ++g) {
             if (report.ghosts[g].pruned) {
                 ++plan.prunedGhosts;
@@ -166,8 +298,10 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
             if (inserted) layerNames_.push_back(label);
             state.ghostLayer[g + 1] = it->second;
         }
-        for (int slot = 0; slot < state.slots; ++slot)
-            if (!state.masks[slot].empty()) tallies_[state.tallyOffset + slot].guided = true;
+        for (int slot = 0; slot < state.slots; ++slot) {
+            tallies_[state.tallyOffset + slot].strategy = state.strategy[slot];
+            tallies_[state.tallyOffset + slot].guided = state.strategy[slot] != PathStrategy::Unguided;
+        }
 
         lightWeight.push_back(plan.skipped ? 0.0 : plan.enteringPowerW);
         lightStates_.push_back(std::move(state));
@@ -187,11 +321,13 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
         scatterSourceTallies_.push_back(t);
     }
     if (layerNames_.size() > kFixedLayerCount) film_ = Film(options.film, static_cast<int>(layerNames_.size()));
+    for (int l = 0; l < kFixedLayerCount; ++l) film_.addVarianceGroup({l});
+    film_.addVarianceGroup({kLayerGhost, kLayerHigher, kLayerScatter});
 
-    // The budget: lights in proportion to the power they send in (every photon then carries a
-    // similar power); within a light, the unguided share, the direct share, and the kept ghosts
-    // in proportion to their analysed power (floored, so that a ghost the analysis underrates
-    // still gets photons).
+    // The photon budget: lights in proportion to the power they send in (every photon then
+    // carries a similar power); within a light, the unguided share, the direct share, and the
+    // photon-guided ghosts in proportion to their analysed power (floored, so that a ghost the
+    // analysis underrates still gets photons).
     double totalWeight = 0.0;
     for (double w : lightWeight) totalWeight += w;
     for (size_t l = 0; l < lightStates_.size() && totalWeight > 0.0; ++l) {
@@ -204,17 +340,23 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
         }
         double strongest = 0.0;
         for (int slot = 1; slot < state.slots; ++slot)
-            if (!state.masks[slot].empty()) strongest = std::max(strongest, state.report.ghosts[slot - 1].powerFraction);
+            if (state.strategy[slot] == PathStrategy::Photons)
+                strongest = std::max(strongest, state.report.ghosts[slot - 1].powerFraction);
         std::vector<double> ghostWeight(state.slots, 0.0);
         double ghostTotal = 0.0;
         for (int slot = 1; slot < state.slots; ++slot) {
-            if (state.masks[slot].empty()) continue;
+            if (state.strategy[slot] != PathStrategy::Photons) continue;
             ghostWeight[slot] = std::max(state.report.ghosts[slot - 1].powerFraction, 1e-3 * strongest);
             ghostTotal += ghostWeight[slot];
         }
-        const double directShare = state.masks[0].empty() ? 0.0 : options.directShare;
-        const double ghostShare = ghostTotal > 0.0 ? 1.0 - options.unguidedShare - options.directShare : 0.0;
-        const double unguidedShare = 1.0 - directShare - ghostShare;
+        double directShare = state.strategy[0] == PathStrategy::Photons ? options.directShare : 0.0;
+        double unguidedShare = options.unguidedShare;
+        double ghostShare = ghostTotal > 0.0 ? 1.0 - unguidedShare - directShare : 0.0;
+        if (ghostShare == 0.0) {
+            const double sum = unguidedShare + directShare;
+            unguidedShare /= sum;
+            directShare /= sum;
+        }
         components_.push_back({static_cast<int>(l), -1, share * unguidedShare});
         if (directShare > 0.0) components_.push_back({static_cast<int>(l), 0, share * directShare});
         for (int slot = 1; slot < state.slots; ++slot)
@@ -264,6 +406,7 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
                             static_cast<std::int16_t>(layer), ghostLayer});
         out.tallySums[tally] += xyzW.y;
         out.layerSums[layer] += xyzW.y;
+        stats.largestPhotonY[layer] = std::max(stats.largestPhotonY[layer], xyzW.y);
         ++stats.sensorHits;
     };
 
@@ -300,8 +443,8 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
             if (std::abs(p.x) > halfW || std::abs(p.y) > halfH) continue;
             const double clear =
                 clearWeight ? tracer_.clearTransmittance(pathPoints, pathSurfaces, wavelengthNm, rng, *scratch) : 1.0;
-            score(component.slot == 0 ? kLayerDirect : kLayerGhost, light.ghostLayer[component.slot],
-                  light.tallyOffset + component.slot, {p.x, p.y}, xyzWeight * (weight * result.throughput * clear));
+            score(light.layer[component.slot], light.ghostLayer[component.slot], light.tallyOffset + component.slot,
+                  {p.x, p.y}, xyzWeight * (weight * result.throughput * clear));
             continue;
         }
 
@@ -330,9 +473,9 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
                     tally = light.higherTally();
                 } else {
                     const int slot = it->second;
-                    // Owned by the guided strategy: already counted there.
+                    // Owned by a guided strategy: already counted there.
                     if (light.masks[slot].contains(a, b)) continue;
-                    layer = slot == 0 ? kLayerDirect : kLayerGhost;
+                    layer = light.layer[slot];
                     tally = light.tallyOffset + slot;
                     ghostLayer = light.ghostLayer[slot];
                 }
@@ -343,20 +486,208 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
     }
 }
 
+void Renderer::traceBeam(BeamJob& job) const {
+    const LightState& light = lightStates_[job.light];
+    const GhostEstimate& estimate = light.report.ghosts[job.slot - 1];
+    const GuideMask& mask = light.masks[job.slot];
+    const int beams = light.beamsPerPass[job.slot];
+    const std::uint64_t pass = static_cast<std::uint64_t>(statistics_.passes);
+    // The path's samples of this pass: the first `beams` points of the Sobol' sequence, with a
+    // random digital shift of the pass (so that passes are independent estimates).
+    const std::uint64_t stream = (pass << 32) ^ (static_cast<std::uint64_t>(job.light) << 20) ^
+                                 static_cast<std::uint64_t>(job.slot);
+    Rng shiftRng(options_.seed ^ 0x5eedbea5u, stream);
+    double u[kBeamDimensions];
+    boost::random::sobol sobol(kBeamDimensions);
+    sobol.discard(static_cast<boost::uintmax_t>(job.index) * kBeamDimensions);
+    for (double& v : u) {
+        const std::uint64_t shift = (static_cast<std::uint64_t>(shiftRng.next()) << 32) | shiftRng.next();
+        v = static_cast<double>((static_cast<std::uint64_t>(sobol()) ^ shift) >> 11) * 0x1.0p-53;
+    }
+    Rng rng(options_.seed, (stream << 16) ^ static_cast<std::uint64_t>(job.index) ^ 0xbea7000000000000ull);
+
+    double pdfPerNm = 0.0;
+    const WavelengthSampler& wavelengths = *light.beamWavelengths[job.slot];
+    const double wavelengthNm = wavelengths.sample(u[0], &pdfPerNm);
+    const glm::dvec3 xyzWeight = wavelengths.xyzWeight(wavelengthNm, pdfPerNm);
+    const glm::dvec2 lightU = concentricToPolarUniforms(u[1], u[2]);
+    const EmittedRay central = light.sampler.rayThrough(0.0, 0.0, lightU.x, lightU.y);
+    job.jitterPx = tentJitter(u[3], u[4]);
+    job.seed = rng.next();
+
+    const LensSystem& lens = *lens_;
+    const SpectralIndices indices = lens.indicesAt(wavelengthNm);
+    // Coating tables for this one wavelength: coarse ones build in a fraction of a millisecond and
+    // agree with the exact response to a few 1e-4 at worst (test_bundle_tracer.cpp), far below the
+    // mesh's own error.
+    const InterfaceTables tables(lens, indices, kBeamTableIntervals);
+    const BundleTracer tracer(lens, indices, estimate.path.reflections, true, &tables);
+    PupilGrid grid = light.report.grid;
+    grid.direction = central.ray.direction;
+    const FilmFrame frame{options_.film.widthPx, options_.film.heightPx, options_.film.widthMm, options_.film.heightMm,
+                          options_.film.widthMm / options_.film.widthPx};
+    PupilRemeshOptions remesh;
+    remesh.minLevel = options_.beamMeshLevel;
+    // Guided paths own only unscattered light: with dust, grease or bulk media every vertex's
+    // throughput carries its probability of crossing them clear (ratio tracking in grids: an
+    // unbiased estimate, so the beam stays an unbiased estimate of its piecewise-linear map).
+    const bool clearWeight = tracer_.hasContamination() || tracer_.hasMedia();
+    SequentialPath sequence;
+    sequence.reflections = estimate.path.reflections;
+    std::vector<glm::dvec3> pathPoints;
+    std::vector<int> pathSurfaces;
+    TraceOptions traceOptions;
+    if (clearWeight) {
+        traceOptions.pathPointsMm = &pathPoints;
+        traceOptions.pathSurfaces = &pathSurfaces;
+    }
+    const std::unique_ptr<PhotonTracer::Scratch> scratch = tracer_.makeScratch();
+    std::function<double(const glm::dvec2&)> clear;
+    if (clearWeight)
+        clear = [&](const glm::dvec2& pupilMm) {
+            pathPoints.clear();
+            pathSurfaces.clear();
+            const TraceResult r = tracePath(lens, indices, grid.ray(pupilMm.x, pupilMm.y), sequence, traceOptions);
+            return r.ok() ? tracer_.clearTransmittance(pathPoints, pathSurfaces, wavelengthNm, rng, *scratch) : 1.0;
+        };
+    job.beam = GhostBeam::build(tracer, grid, estimate.lattice, mask, frame, remesh, clear);
+
+    // Film units: the pass's image is its accumulated power over photonsPerPass (the film's
+    // divisor), and the path's estimate is the mean of its beams.
+    const double perBeam = static_cast<double>(options_.photonsPerPass()) / beams;
+    job.scale = xyzWeight * (central.powerPerMm2 * perBeam);
+    job.powerY = job.beam.powerOnSensor() * central.powerPerMm2 * xyzWeight.y / static_cast<double>(beams);
+
+    // Correction photons: the same wavelength and direction, pupil points stratified over the
+    // mask; each photon adds itself and subtracts its twin.
+    const int photons = options_.correctionPhotonsPerBeam;
+    if (photons <= 0 || job.beam.empty()) return;
+    const double halfW = 0.5 * lens.sensor().widthMm, halfH = 0.5 * lens.sensor().heightMm;
+    const double perPhoton = perBeam / photons;
+    const glm::dvec3 base = xyzWeight * (mask.areaMm2() * perPhoton);
+    const int layer = light.layer[job.slot];
+    const int ghostLayer = light.ghostLayer[job.slot];
+    auto hit = [&](const glm::dvec2& sensorMm, const glm::dvec3& xyz) {
+        job.hits.push_back({static_cast<float>(sensorMm.x), static_cast<float>(sensorMm.y),
+                            {static_cast<float>(xyz.x), static_cast<float>(xyz.y), static_cast<float>(xyz.z)},
+                            static_cast<std::int16_t>(layer), ghostLayer});
+    };
+    double correctionY = 0.0;
+    for (int i = 0; i < photons; ++i) {
+        const glm::dvec2 ab = mask.sample((i + rng.uniform()) / photons, rng.uniform(), rng.uniform());
+        const EmittedRay emitted = light.sampler.rayThrough(ab.x, ab.y, lightU.x, lightU.y);
+        ++job.photons;
+        pathPoints.clear();
+        pathSurfaces.clear();
+        const TraceResult result = tracePath(lens, indices, emitted.ray, sequence, traceOptions);
+        if (result.ok()) {
+            const glm::dvec3& p = result.ray.originMm;
+            if (std::abs(p.x) <= halfW && std::abs(p.y) <= halfH) {
+                const double clear =
+                    clearWeight ? tracer_.clearTransmittance(pathPoints, pathSurfaces, wavelengthNm, rng, *scratch) : 1.0;
+                const glm::dvec3 xyz = base * (emitted.powerPerMm2 * result.throughput * clear);
+                hit({p.x, p.y}, xyz);
+                correctionY += xyz.y;
+            }
+        }
+        BeamTwin twin;
+        if (job.beam.twin(ab, &twin)) {
+            const glm::dvec2 sensorMm = frame.toSensorMm(twin.pixel);
+            const glm::dvec3 xyz = -base * (central.powerPerMm2 * twin.throughput);
+            hit(sensorMm, xyz);
+            correctionY += xyz.y;
+        }
+    }
+    job.powerY += correctionY / static_cast<double>(options_.photonsPerPass());
+}
+
+void Renderer::merge(const std::vector<BatchResult>& batches, const std::vector<BeamJob>& beams) {
+    const int bandCount = film_.bandCount();
+    const int width = options_.film.widthPx;
+    // Every hit, by the bands its kernel touches (a kernel near a band's edge reaches two).
+    struct Ref {
+        const Hit* hit;
+    };
+    std::vector<std::vector<Ref>> byBand(bandCount);
+    auto bucket = [&](const Hit& hit) {
+        const glm::dvec2 sensorMm(hit.xMm, hit.yMm);
+        const double row = film_.toPixel(sensorMm).y;
+        const double reach = film_.radiusPx(hit.layer, sensorMm) + 1.0;
+        const int first = std::max(0, static_cast<int>(std::floor((row - reach) / Film::kBandRows)));
+        const int last = std::min(bandCount - 1, static_cast<int>(std::floor((row + reach) / Film::kBandRows)));
+        for (int b = first; b <= last; ++b) byBand[b].push_back({&hit});
+    };
+    for (const BatchResult& batch : batches)
+        for (const Hit& hit : batch.hits) bucket(hit);
+    for (const BeamJob& job : beams)
+        for (const Hit& hit : job.hits) bucket(hit);
+
+    const bool perGhost = options_.perGhostLayers;
+    tbb::parallel_for(tbb::blocked_range<int>(0, bandCount, 1), [&](const tbb::blocked_range<int>& range) {
+        const size_t bandValues = static_cast<size_t>(Film::kBandRows) * width * 3;
+        std::vector<double> rows[2], own;
+        for (int band = range.begin(); band != range.end(); ++band) {
+            for (const Ref& ref : byBand[band]) {
+                const Hit& hit = *ref.hit;
+                const glm::dvec2 p(hit.xMm, hit.yMm);
+                const glm::dvec3 xyz(hit.xyz[0], hit.xyz[1], hit.xyz[2]);
+                film_.splatInBand(band, hit.layer, p, xyz);
+                if (hit.ghostLayer >= 0) film_.splatInBand(band, hit.ghostLayer, p, xyz, false);
+            }
+            // Beams, path by path (a path's beams are consecutive jobs): into the ghost or higher
+            // rows, and into the path's own layer when asked.
+            for (auto& r : rows) r.assign(bandValues, 0.0);
+            bool touched[2] = {false, false};
+            for (size_t j = 0; j < beams.size();) {
+                const BeamJob& first = beams[j];
+                const LightState& light = lightStates_[first.light];
+                const int target = light.layer[first.slot] == kLayerHigher ? 1 : 0;
+                const int ghostLayer = perGhost ? light.ghostLayer[first.slot] : -1;
+                if (ghostLayer >= 0) own.assign(bandValues, 0.0);
+                std::vector<double>& into = ghostLayer >= 0 ? own : rows[target];
+                size_t k = j;
+                for (; k < beams.size() && beams[k].light == first.light && beams[k].slot == first.slot; ++k)
+                    beams[k].beam.rasterise(band, beams[k].jitterPx, beams[k].scale, beams[k].seed, into.data());
+                if (ghostLayer >= 0) {
+                    film_.addBand(band, ghostLayer, own.data(), false);
+                    for (size_t i = 0; i < bandValues; ++i) rows[target][i] += own[i];
+                }
+                touched[target] = touched[target] || k > j;
+                j = k;
+            }
+            if (touched[0]) film_.addBand(band, kLayerGhost, rows[0].data());
+            if (touched[1]) film_.addBand(band, kLayerHigher, rows[1].data());
+        }
+    });
+}
+
 void Renderer::runPass() {
     const auto start = std::chrono::steady_clock::now();
     const int batches = options_.batchesPerPass;
-    tbb::parallel_for(0, batches, [&](int b) { traceBatch(batchesDone_ + b, batches_[b]); });
-
-    // Merge in batch order: the result does not depend on which thread traced what.
-    for (const BatchResult& batch : batches_) {
-        for (const Hit& hit : batch.hits) {
-            const glm::dvec2 p(hit.xMm, hit.yMm);
-            const glm::dvec3 xyz(hit.xyz[0], hit.xyz[1], hit.xyz[2]);
-            film_.splat(hit.layer, p, xyz);
-            if (hit.ghostLayer >= 0) film_.splat(hit.ghostLayer, p, xyz, false);
+    std::vector<BeamJob> beamJobs;
+    for (size_t l = 0; l < lightStates_.size(); ++l) {
+        const LightState& light = lightStates_[l];
+        for (int slot = 1; slot < light.slots; ++slot)
+            for (int k = 0; k < light.beamsPerPass[slot]; ++k) {
+                BeamJob job;
+                job.light = static_cast<int>(l);
+                job.slot = slot;
+                job.index = k;
+                beamJobs.push_back(std::move(job));
+            }
+    }
+    // Beams first (they cost more each), then the photon batches: one loop balances both.
+    const int jobs = static_cast<int>(beamJobs.size()) + batches;
+    tbb::parallel_for(tbb::blocked_range<int>(0, jobs, 1), [&](const tbb::blocked_range<int>& range) {
+        for (int j = range.begin(); j != range.end(); ++j) {
+            if (j < static_cast<int>(beamJobs.size())) traceBeam(beamJobs[j]);
+            else traceBatch(batchesDone_ + (j - static_cast<int>(beamJobs.size())), batches_[j - beamJobs.size()]);
         }
-        const double inverseCount = 1.0 / options_.batchPhotons;
+    });
+    merge(batches_, beamJobs);
+
+    const double inverseCount = 1.0 / options_.batchPhotons;
+    for (const BatchResult& batch : batches_) {
         for (size_t t = 0; t < tallies_.size(); ++t) {
             const double mean = batch.tallySums[t] * inverseCount;
             tallies_[t].sumMeans += mean;
@@ -385,6 +716,28 @@ void Renderer::runPass() {
             statistics_.fates[f].photons += s.fates[f].photons;
             statistics_.fates[f].powerW += s.fates[f].powerW;
         }
+        for (int l = 0; l < kFixedLayerCount; ++l)
+            statistics_.largestPhotonY[l] = std::max(statistics_.largestPhotonY[l], s.largestPhotonY[l]);
+    }
+    // Beam-rendered paths: one sample per pass (their beams are stratified together).
+    std::vector<double> passTally(tallies_.size(), 0.0);
+    double passLayer[kFixedLayerCount] = {};
+    for (const BeamJob& job : beamJobs) {
+        const LightState& light = lightStates_[job.light];
+        passTally[light.tallyOffset + job.slot] += job.powerY;
+        passLayer[light.layer[job.slot]] += job.powerY;
+        ++statistics_.beams;
+        statistics_.beamRays += job.beam.tracedRays();
+        statistics_.correctionPhotons += job.photons;
+    }
+    for (size_t t = 0; t < tallies_.size(); ++t) {
+        if (tallies_[t].strategy != PathStrategy::Beams) continue;
+        tallies_[t].sumPassMeans += passTally[t];
+        tallies_[t].sumSquaredPassMeans += passTally[t] * passTally[t];
+    }
+    for (int l = 0; l < kFixedLayerCount; ++l) {
+        layerTallies_[l].sumPassMeans += passLayer[l];
+        layerTallies_[l].sumSquaredPassMeans += passLayer[l] * passLayer[l];
     }
     film_.endPass(options_.photonsPerPass());
     batchesDone_ += batches;
@@ -393,20 +746,28 @@ void Renderer::runPass() {
 }
 
 std::vector<float> Renderer::layerXyz(int layer) const {
-    return film_.irradianceXyz(layer, static_cast<double>(batchesDone_) * options_.batchPhotons);
+    return film_.irradianceXyz(layer, static_cast<double>(statistics_.passes) * options_.photonsPerPass());
 }
 
 double Renderer::tallyPowerW(const PathTally& tally) const {
-    return batchesDone_ > 0 ? tally.sumMeans / static_cast<double>(batchesDone_) : 0.0;
+    double power = 0.0;
+    if (batchesDone_ > 0) power += tally.sumMeans / static_cast<double>(batchesDone_);
+    if (statistics_.passes > 0) power += tally.sumPassMeans / statistics_.passes;
+    return power;
 }
 
 double Renderer::tallyStandardErrorW(const PathTally& tally) const {
-    if (batchesDone_ < 2) return 0.0;
-    const double n = static_cast<double>(batchesDone_);
-    const double mean = tally.sumMeans / n;
-    const double variance = std::max(0.0, (tally.sumSquaredMeans - n * mean * mean) / (n - 1.0));
-    return std::sqrt(variance / n);
+    // Var of a mean of n i.i.d. samples with these sums, estimated without bias.
+    auto varianceOfMean = [](double sum, double sumSquares, double n) {
+        if (n < 2.0) return 0.0;
+        const double mean = sum / n;
+        return std::max(0.0, (sumSquares - n * mean * mean) / (n - 1.0)) / n;
+    };
+    return std::sqrt(varianceOfMean(tally.sumMeans, tally.sumSquaredMeans, static_cast<double>(batchesDone_)) +
+                     varianceOfMean(tally.sumPassMeans, tally.sumSquaredPassMeans, statistics_.passes));
 }
+
+double Renderer::estimatedRelativeError(int group) const { return film_.errorEstimate(group).relative(); }
 
 std::uint64_t Renderer::fingerprint() const {
     // FNV-1a over everything that decides which random numbers go where.
@@ -418,13 +779,15 @@ std::uint64_t Renderer::fingerprint() const {
     mix(&options_.seed, sizeof options_.seed);
     const int ints[] = {static_cast<int>(options_.mode), options_.maxBounces, options_.batchPhotons,
                         options_.batchesPerPass, film_.layerCount(), options_.film.widthPx, options_.film.heightPx,
-                        static_cast<int>(options_.film.kernel), lens_->surfaceCount()};
+                        static_cast<int>(options_.film.kernel), lens_->surfaceCount(), options_.beamsPerPass,
+                        options_.correctionPhotonsPerBeam, options_.beamMeshLevel};
     mix(ints, sizeof ints);
     for (const Component& c : components_) {
         mix(&c.light, sizeof c.light);
         mix(&c.slot, sizeof c.slot);
         mix(&c.probability, sizeof c.probability);
     }
+    for (const LightState& light : lightStates_) mix(light.beamsPerPass.data(), light.beamsPerPass.size() * sizeof(int));
     const double doubles[] = {options_.film.radiusPx, options_.materials.housingAlbedo, options_.materials.edgeAlbedo,
                               options_.materials.irisAlbedo, lens_->sensorZMm(), lens_->iris().radiusMm()};
     mix(doubles, sizeof doubles);
@@ -433,7 +796,7 @@ std::uint64_t Renderer::fingerprint() const {
 }
 
 namespace {
-constexpr std::uint64_t kCheckpointMagic = 0x3154504b43524c46ull;  // "FLRCKPT1"
+constexpr std::uint64_t kCheckpointMagic = 0x3254504b43524c46ull;  // "FLRCKPT2"
 }
 
 void Renderer::saveCheckpoint(const std::string& path) const {
@@ -446,8 +809,8 @@ void Renderer::saveCheckpoint(const std::string& path) const {
         out.write(reinterpret_cast<const char*>(&statistics_), sizeof statistics_);
         for (const auto* list : {&tallies_, &layerTallies_, &scatterSourceTallies_})
             for (const PathTally& t : *list) {
-                out.write(reinterpret_cast<const char*>(&t.sumMeans), sizeof t.sumMeans);
-                out.write(reinterpret_cast<const char*>(&t.sumSquaredMeans), sizeof t.sumSquaredMeans);
+                const double sums[] = {t.sumMeans, t.sumSquaredMeans, t.sumPassMeans, t.sumSquaredPassMeans};
+                out.write(reinterpret_cast<const char*>(sums), sizeof sums);
             }
         film_.save(out);
         out.flush();
@@ -473,21 +836,28 @@ void Renderer::loadCheckpoint(const std::string& path) {
         std::vector<PathTally> tallies = tallies_, layerTallies = layerTallies_, sourceTallies = scatterSourceTallies_;
         for (auto* list : {&tallies, &layerTallies, &sourceTallies})
             for (PathTally& t : *list) {
-                in.read(reinterpret_cast<char*>(&t.sumMeans), sizeof t.sumMeans);
-                in.read(reinterpret_cast<char*>(&t.sumSquaredMeans), sizeof t.sumSquaredMeans);
+                double sums[4] = {};
+                in.read(reinterpret_cast<char*>(sums), sizeof sums);
+                t.sumMeans = sums[0], t.sumSquaredMeans = sums[1], t.sumPassMeans = sums[2], t.sumSquaredPassMeans = sums[3];
             }
         if (!in) throw std::runtime_error("checkpoint: truncated");
         // The doubles are taken as written: a corrupt or hostile file could hold a NaN or an
-        // infinity, which would turn every power reported from here on into NaN. Powers, sums of
-        // squares, photon counts and times are never negative either.
+        // infinity, which would turn every power reported from here on into NaN. Photon counts
+        // and times are never negative, nor are sums of squares; a beam path's sum can be (its
+        // corrections may outweigh a pass's beams).
         auto bad = [](double v) { return !std::isfinite(v) || v < 0.0; };
         bool valid = !bad(statistics.seconds) && !bad(statistics.unguidedEmittedPowerW) &&
-                     !bad(statistics.unguidedEnteredPowerW) && statistics.photons >= 0 && statistics.passes >= 0;
+                     !bad(statistics.unguidedEnteredPowerW) && statistics.photons >= 0 && statistics.passes >= 0 &&
+                     statistics.beams >= 0 && statistics.beamRays >= 0 && statistics.correctionPhotons >= 0;
         for (const FateTally& f : statistics.fates) valid = valid && !bad(f.powerW) && f.photons >= 0;
+        for (double y : statistics.largestPhotonY) valid = valid && !bad(y);
         for (const auto* list : {&tallies, &layerTallies, &sourceTallies})
-            for (const PathTally& t : *list) valid = valid && !bad(t.sumMeans) && !bad(t.sumSquaredMeans);
+            for (const PathTally& t : *list)
+                valid = valid && !bad(t.sumMeans) && !bad(t.sumSquaredMeans) && std::isfinite(t.sumPassMeans) &&
+                        !bad(t.sumSquaredPassMeans);
         if (!valid) throw std::runtime_error("checkpoint: a statistic or tally is negative or not finite");
         film_.load(in);
+        if (film_.passes() != statistics.passes) throw std::runtime_error("checkpoint: the film's passes differ from the statistics'");
         statistics_ = statistics;
         tallies_ = std::move(tallies);
         layerTallies_ = std::move(layerTallies);

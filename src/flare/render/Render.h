@@ -1,24 +1,38 @@
-// The final render: photons from every light through the lens onto the sensor, density-estimated
-// into layers (direct, ghost, higher, scatter, and one per ghost on request).
+// The final render: light from every light through the lens onto the sensor, estimated into
+// layers (direct, ghost, higher, scatter, and one per ghost on request).
 //
-// Two strategies share the work, and every light path belongs to exactly one of them
-// (DESIGN.md, "the one rule"):
-//   guided   for each light and each path the ghost analysis kept (the direct image included),
-//            photons are emitted only through the path's live pupil cells and traced through its
-//            forced reflection sequence; the weight is the product of the Fresnel/coating factors.
-//            It owns the paths with that exact sequence that start in those cells.
+// Every light path belongs to exactly one estimator (DESIGN.md, "the one rule"):
+//   beams    (guided mode, directional lights) each kept ghost path is owned for the pupil points
+//            inside its guide mask. Its image is estimated per pass by beams (GhostBeam.h): the
+//            path meshed at a sampled wavelength, direction within the light's disk and film-kernel
+//            jitter, its irradiance integrated over the pupil deterministically; the samples are a
+//            scrambled Sobol' set per pass, with wavelengths drawn where the path's coatings
+//            reflect. Photons traced through the path at a beam's wavelength and direction correct
+//            the beam through their twins (photon − twin, both splatted with the film's kernel),
+//            so the estimate is unbiased whatever the mesh's error, and the noise left is that of
+//            the difference, which vanishes where the piecewise-linear map is accurate.
+//   guided photons  the direct image, and kept ghosts that beams cannot render (point and disk
+//            lights; mode GuidedPhotons for all of them): photons emitted only through the path's
+//            live cells and traced through its forced sequence, weighted by the Fresnel/coating
+//            factors.
 //   unguided the non-sequential photon tracer (Fresnel roulette, unbounded bounces), emitting
 //            uniformly towards the whole front opening: the thesis's method. It scores every path
-//            the guided strategy does not own: pruned ghosts, rays outside the live cells, longer
-//            chains (`higher`), scattered light.
-// Each photon picks one strategy (a mixture with fixed probabilities, the budget), so the sum is
-// an unbiased estimate of the full transport. In naive mode the unguided tracer does everything.
+//            the others do not own: pruned ghosts, rays outside the masks, longer chains
+//            (`higher`), scattered light.
+// The photons of a pass pick the unguided tracer or a photon-guided path at random (a mixture
+// with fixed probabilities, the budget); beams and their correction photons are added on top, a
+// fixed number per path and pass. The sum is an unbiased estimate of the full transport, which a
+// test checks against naive mode (the unguided tracer alone).
 //
-// Work is split into passes of fixed-size batches; a batch's random numbers come from
-// (seed, batch index) and passes are merged in batch order, so the image depends on the seed and
-// never on the thread count. A pass is also the unit of checkpoints and of the variance estimate.
+// Work is split into passes of photon batches and beams; every batch's and beam's random numbers
+// come from (seed, pass, index) and a pass is merged into the film band by band in a fixed order,
+// in parallel, so the image depends on the seed and never on the thread count. Passes are
+// independent estimates: the spread between them gives the variance of every layer and of the
+// flare without the direct image (the render's error estimate), and they are the unit of
+// checkpoints.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -32,7 +46,9 @@
 namespace flare {
 
 struct RenderOptions {
-    enum class Mode { Naive, Guided };
+    // Naive: the unguided tracer alone (the seed thesis's method). Guided: beams where they
+    // apply, guided photons elsewhere. GuidedPhotons: guided photons for every kept path.
+    enum class Mode { Naive, Guided, GuidedPhotons };
     Mode mode = Mode::Guided;
     std::uint64_t seed = 1;
     int maxBounces = -1;  // −1: unbounded
@@ -42,30 +58,56 @@ struct RenderOptions {
     std::vector<SurfaceContamination> contamination;  // per surface, or empty (clean)
     std::vector<BulkMedium> media;
     GhostAnalysisOptions analysis;
-    // Guided mode: shares of the photons given to the unguided tracer and to the direct image;
-    // the rest goes to the kept ghosts in proportion to their estimated power.
+    // The photons of a pass: shares of the unguided tracer and of the direct image; the rest goes
+    // to photon-guided ghosts in proportion to their estimated power (when there are none, the
+    // unguided tracer and the direct image share everything in these proportions).
     double unguidedShare = 0.1;
     double directShare = 0.1;
     int batchPhotons = 1024;
     int batchesPerPass = 64;
+    // Beams of a pass, per light, shared among its beam-rendered paths (each gets at least one),
+    // and the correction photons traced with each beam.
+    int beamsPerPass = 256;
+    int correctionPhotonsPerBeam = 0;
+    // Beams are meshed on the ghost analysis's cells split to this level (PupilRemeshOptions).
+    int beamMeshLevel = 2;
 
     std::int64_t photonsPerPass() const { return static_cast<std::int64_t>(batchPhotons) * batchesPerPass; }
 };
-
 
 // Film layers of every render, in this order; per-ghost layers follow.
 enum RenderLayer : int { kLayerDirect = 0, kLayerGhost, kLayerHigher, kLayerScatter, kFixedLayerCount };
 const char* renderLayerName(int layer);
 
-// What a path tally counts, per light.
+// The film's variance groups of a render: the total (0), each fixed layer, and the flare without
+// the direct image (ghost + higher + scatter), whose estimated error a render can be run to.
+enum RenderVarianceGroup : int {
+    kGroupTotal = 0,
+    kGroupDirect,
+    kGroupGhost,
+    kGroupHigher,
+    kGroupScatter,
+    kGroupFlare,
+    kVarianceGroupCount
+};
+
+// How a path tally's path is estimated.
+enum class PathStrategy : std::uint8_t { Unguided, Photons, Beams };
+const char* toString(PathStrategy strategy);
+
+// What a path tally counts, per light. The estimate is the sum of two independent parts, each
+// with its own samples: per photon batch (photon strategies) and per pass (beams, whose samples
+// within a pass are stratified together).
 struct PathTally {
     enum class Kind { Direct, Ghost, Higher, Scatter };
     Kind kind = Kind::Ghost;
     int light = 0;
     GhostPath path;            // Direct and Ghost
     double analysedPowerFraction = 0.0;  // the ghost analysis's estimate (0 for Higher/Scatter)
-    bool guided = false;       // sampled by the guided strategy (else: by the unguided tracer only)
-    double sumMeans = 0.0, sumSquaredMeans = 0.0;  // over batches of the per-photon mean Y power (W)
+    PathStrategy strategy = PathStrategy::Unguided;
+    bool guided = false;       // owned by a guided strategy (photons or beams) inside its mask
+    double sumMeans = 0.0, sumSquaredMeans = 0.0;          // over batches: per-photon mean Y power (W)
+    double sumPassMeans = 0.0, sumSquaredPassMeans = 0.0;  // over passes: the beams' Y power (W)
 };
 
 struct LightPlan {
@@ -74,6 +116,7 @@ struct LightPlan {
     std::string skipReason;
     double enteringPowerW = 0.0;  // the light's power entering the front clear aperture (nominal)
     int keptGhosts = 0, prunedGhosts = 0;
+    int beamGhosts = 0;           // kept ghosts rendered by beams
 };
 
 struct FateTally {
@@ -82,29 +125,36 @@ struct FateTally {
 };
 
 struct RenderStatistics {
-    std::int64_t photons = 0;          // emitted, both strategies
+    std::int64_t photons = 0;          // emitted by the pass budgets (unguided + photon-guided)
     std::int64_t unguidedPhotons = 0;
     std::int64_t guidedPhotons = 0;
     std::int64_t sensorHits = 0;
+    std::int64_t beams = 0;
+    std::int64_t beamRays = 0;         // traced to mesh the beams
+    std::int64_t correctionPhotons = 0;
     int passes = 0;
     double seconds = 0.0;              // wall time of the passes (summed over resumed sessions)
     double unguidedEmittedPowerW = 0.0;  // Σ weights of the unguided photons
     double unguidedEnteredPowerW = 0.0;
     FateTally fates[static_cast<int>(PhotonFate::Count)];
     std::int64_t nullCollisions = 0, realCollisions = 0;  // delta tracking in bulk media
+    // Per fixed layer: the largest Y power a single photon added (W per photon drawn, as the
+    // photon weights), for the report's firefly check: divided by the photon count and the
+    // layer's power it is the share of the layer one photon carries.
+    std::array<double, kFixedLayerCount> largestPhotonY{};
 };
 
 class Renderer {
 public:
-    // Analyses the ghosts of every light, plans the photon budget and allocates the film. `lens`
-    // is built at the scene's state (buildSceneLens); `options` carries its scattering
+    // Analyses the ghosts of every light, plans the budget and allocates the film. `lens` is
+    // built at the scene's state (buildSceneLens); `options` carries its scattering
     // (applySceneScattering).
     Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights, const RenderOptions& options);
     ~Renderer();
     Renderer(const Renderer&) = delete;
     Renderer& operator=(const Renderer&) = delete;
 
-    // Traces one pass (options.photonsPerPass() photons) in parallel and merges it.
+    // Traces one pass (options.photonsPerPass() photons and the beams) in parallel and merges it.
     void runPass();
 
     const RenderOptions& options() const { return options_; }
@@ -123,9 +173,12 @@ public:
     // Irradiance (W/m², XYZ) of a film layer after the passes so far.
     std::vector<float> layerXyz(int layer) const;
     // Estimated mean Y power (W) on the sensor of a tally and its standard error, from the spread
-    // between batches (independent, identically distributed estimates).
+    // between its batches and passes (independent, identically distributed estimates).
     double tallyPowerW(const PathTally& tally) const;
     double tallyStandardErrorW(const PathTally& tally) const;
+    // The estimated relative L2 error (over pixels and RGB channels, as `flare compare`) of a
+    // variance group's image (RenderVarianceGroup), from the spread between passes; 0 before two.
+    double estimatedRelativeError(int group) const;
 
     // Checkpoints (binary): the film, the tallies, the statistics and the number of passes done.
     // Loading checks that the checkpoint was written by a render with the same scene, lens and
@@ -137,7 +190,10 @@ private:
     struct Component;
     struct LightState;
     struct BatchResult;
+    struct BeamJob;
     void traceBatch(std::int64_t batchIndex, BatchResult& out) const;
+    void traceBeam(BeamJob& job) const;
+    void merge(const std::vector<BatchResult>& batches, const std::vector<BeamJob>& beams);
     std::uint64_t fingerprint() const;
 
     const LensSystem* lens_;

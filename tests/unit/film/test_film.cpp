@@ -532,7 +532,7 @@ TEST(Film, LoadRejectsACheckpointOfAnotherFilm) {
 
 // A checkpoint whose sum tile is present but whose sum-of-squares tile is absent must be refused
 // (it used to load, and varianceRgb() then dereferenced a missing tile). The byte layout below is
-// Film::save's (magic, five int32, then per tile a flag byte and 32 × 32 × 3 doubles).
+// Film::save's (magic, six int32, then per tile a flag byte and 32 × 32 × 3 doubles).
 TEST(Film, LoadRejectsAnInconsistentCheckpoint) {
     const FilmSettings s = filmSettings(32, 32);  // a single tile, Fixed kernel (no counts)
     Film original(s, 1);
@@ -542,7 +542,7 @@ TEST(Film, LoadRejectsAnInconsistentCheckpoint) {
     }
     std::string bytes = saved(original);
     const size_t tileBytes = 32 * 32 * 3 * sizeof(double);
-    ASSERT_EQ(bytes.size(), 8 + 5 * 4 + 3 * (1 + tileBytes));
+    ASSERT_EQ(bytes.size(), 8 + 6 * 4 + 3 * (1 + tileBytes));
     bytes.resize(bytes.size() - tileBytes);  // drop the sum-of-squares tile ...
     bytes.back() = 0;                        // ... and mark it absent
     Film restored(s, 1);

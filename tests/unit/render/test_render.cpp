@@ -259,11 +259,11 @@ TEST(Render, CheckpointWithANonFiniteValueIsRefused) {
     in.close();
 
     // The checkpoint: a 3-word header, the statistics, two doubles per tally, then the film (a
-    // magic word, five int32 and per tile a presence byte followed by its doubles).
+    // magic word, six int32 and per tile a presence byte followed by its doubles).
     const size_t tallies = 3 * sizeof(std::uint64_t) + sizeof(RenderStatistics);
     const size_t film = tallies + 2 * sizeof(double) *
                                       (first.tallies().size() + first.layerTallies().size() + first.scatterSourceTallies().size());
-    size_t tile = film + sizeof(std::uint64_t) + 5 * sizeof(std::int32_t);
+    size_t tile = film + sizeof(std::uint64_t) + 6 * sizeof(std::int32_t);
     while (tile < good.size() && good[tile] == 0) ++tile;  // the first tile present
     ASSERT_LT(tile + sizeof(double), good.size());
     for (const auto& [offset, value] : {std::pair{tallies, std::nan("")}, std::pair{tile + 1, HUGE_VAL}}) {
