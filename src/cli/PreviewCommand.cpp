@@ -1,5 +1,7 @@
 #include "PreviewCommand.h"
 
+#include "Output.h"
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -55,6 +57,8 @@ void add(std::vector<float>& into, const std::vector<float>& from) {
 
 void run(const PreviewCommandOptions& o) {
     const auto start = std::chrono::steady_clock::now();
+    checkWritable(o.exr);
+    if (!o.png.empty()) checkWritable(o.png);
     const Scene scene = o.scene.empty() ? defaultScene() : loadScene(o.scene);
     const LensSystem lens = buildSceneLens(scene);
 

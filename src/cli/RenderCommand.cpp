@@ -5,6 +5,7 @@
 #include <csignal>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -33,6 +34,7 @@ struct RenderCommandOptions {
     double radiusPx = 1.0;
     long long photons = -1;  // −1: the scene's
     double timeS = 0.0;
+    double targetError = 0.02;  // 0: none
     int maxBounces = -2;     // −2: the scene's
     long long seed = -1;     // −1: the scene's
     int threads = 0;
@@ -74,16 +76,30 @@ nlohmann::json reportJson(const Renderer& renderer, const Scene& scene, const Le
     nlohmann::json skipped = nlohmann::json::array();
     for (const LightPlan& l : renderer.lights()) {
         lights.push_back({{"name", l.name}, {"entering_power_w", l.enteringPowerW}, {"kept_ghosts", l.keptGhosts},
-                          {"pruned_ghosts", l.prunedGhosts}, {"skipped", l.skipped}});
+                          {"beam_ghosts", l.beamGhosts}, {"pruned_ghosts", l.prunedGhosts}, {"skipped", l.skipped}});
         if (l.skipped) skipped.push_back({{"light", l.name}, {"reason", l.skipReason}});
     }
     j["lights"] = lights;
     j["skipped"] = skipped;
 
+    // Per layer: the power with its standard error, the estimated relative L2 error of the image
+    // (as `flare compare` measures it against a reference), and the largest share of the layer's
+    // power one photon carried (a firefly shows as a share far above 1 / photons).
     nlohmann::json layers;
-    for (const PathTally& t : renderer.layerTallies())
-        layers[kindName(t.kind)] = {{"power_w", renderer.tallyPowerW(t)}, {"standard_error_w", renderer.tallyStandardErrorW(t)}};
+    const double drawn = static_cast<double>(s.passes) * renderer.options().photonsPerPass();
+    for (int l = 0; l < kFixedLayerCount; ++l) {
+        const PathTally& t = renderer.layerTallies()[l];
+        const double power = renderer.tallyPowerW(t);
+        layers[kindName(t.kind)] = {
+            {"power_w", power},
+            {"standard_error_w", renderer.tallyStandardErrorW(t)},
+            {"estimated_relative_error", renderer.estimatedRelativeError(kGroupDirect + l)},
+            {"largest_photon_share", power > 0.0 && drawn > 0.0 ? s.largestPhotonY[l] / (drawn * power) : 0.0}};
+    }
     j["layers"] = layers;
+    j["flare_estimated_relative_error"] = renderer.estimatedRelativeError(kGroupFlare);
+    j["target_error"] = o.targetError;
+    j["beams"] = {{"beams", s.beams}, {"traced_rays", s.beamRays}, {"correction_photons", s.correctionPhotons}};
     nlohmann::json sources;
     for (size_t i = 0; i < renderer.scatterSourceTallies().size(); ++i) {
         const PathTally& t = renderer.scatterSourceTallies()[i];
@@ -113,7 +129,8 @@ nlohmann::json reportJson(const Renderer& renderer, const Scene& scene, const Le
                               {"standard_error_w", renderer.tallyStandardErrorW(*t)},
                               {"power_fraction", entering > 0.0 ? power / entering : 0.0},
                               {"analysed_power_fraction", t->analysedPowerFraction},
-                              {"guided", t->guided}});
+                              {"guided", t->guided},
+                              {"strategy", toString(t->strategy)}});
     }
     j["ghosts"] = ghostArray;
 
@@ -130,17 +147,36 @@ nlohmann::json reportJson(const Renderer& renderer, const Scene& scene, const Le
     return j;
 }
 
-void printProgress(const Renderer& renderer, std::int64_t target, double limitS, double elapsedS) {
+// The error estimate of a render with fewer passes than this is too rough to stop on (its
+// variance estimate has passes − 1 degrees of freedom).
+constexpr int kMinPassesToStop = 8;
+
+// The share of the work done, whichever limit comes first: the photon count, the time, or the
+// target error (whose square falls as one over the passes).
+double progressFraction(const Renderer& renderer, std::int64_t photonLimit, double timeLimitS, double targetError,
+                        double elapsedS) {
     const RenderStatistics& s = renderer.statistics();
-    const double rate = elapsedS > 0.0 ? s.photons / elapsedS : 0.0;
-    double fraction = target > 0 ? static_cast<double>(s.photons) / target : 0.0;
-    if (limitS > 0.0) fraction = std::max(fraction, elapsedS / limitS);
-    fraction = std::min(fraction, 1.0);
+    double fraction = photonLimit > 0 ? static_cast<double>(s.photons) / photonLimit : 0.0;
+    if (timeLimitS > 0.0) fraction = std::max(fraction, elapsedS / timeLimitS);
+    const double error = renderer.estimatedRelativeError(kGroupFlare);
+    if (targetError > 0.0 && error > 0.0 && s.passes >= 2)
+        fraction = std::max(fraction, std::min(1.0, (targetError * targetError) / (error * error)) *
+                                          std::min(1.0, s.passes / static_cast<double>(kMinPassesToStop)));
+    return std::min(fraction, 1.0);
+}
+
+void printProgress(const Renderer& renderer, double fraction, double targetError, double elapsedS) {
+    const RenderStatistics& s = renderer.statistics();
     const double left = fraction > 0.0 ? elapsedS * (1.0 - fraction) / fraction : 0.0;
     const int width = 30, filled = static_cast<int>(fraction * width);
-    std::fprintf(stderr, "\r[%.*s%*s] %5.1f%%  %.3g photons  %.3g photons/s  %.0f s left   ", filled,
-                 "##############################", width - filled, "", 100.0 * fraction, static_cast<double>(s.photons),
-                 rate, left);
+    const double error = renderer.estimatedRelativeError(kGroupFlare);
+    char errorText[64] = "";
+    if (s.passes >= 2) std::snprintf(errorText, sizeof errorText, "  error %.2g%%", 100.0 * error);
+    if (s.passes >= 2 && targetError > 0.0)
+        std::snprintf(errorText + std::strlen(errorText), sizeof errorText - std::strlen(errorText), " (target %.2g%%)",
+                      100.0 * targetError);
+    std::fprintf(stderr, "\r[%.*s%*s] %5.1f%%  %d passes%s  %.0f s left   ", filled, "##############################",
+                 width - filled, "", 100.0 * fraction, s.passes, errorText, left);
     std::fflush(stderr);
 }
 
@@ -151,6 +187,9 @@ int run(const RenderCommandOptions& o) {
 
     // Ctrl-C from here on ends the current pass and writes a checkpoint (before the first pass it
     // simply ends the render: there is nothing to save yet).
+    // Every output is checked before any work: a long render must not fail at its end.
+    for (const std::string* path : {&o.exr, &o.png, &o.report, &o.checkpoint})
+        if (!path->empty()) checkWritable(*path);
     gInterrupted.store(false);
     auto previous = std::signal(SIGINT, onInterrupt);
     const Scene scene = o.scene.empty() ? defaultScene() : loadScene(o.scene);
@@ -191,10 +230,14 @@ int run(const RenderCommandOptions& o) {
                          static_cast<long long>(renderer.statistics().photons));
     }
 
-    const std::int64_t target = o.timeS > 0.0 ? 0 : (o.photons > 0 ? o.photons : scene.render.photons);
+    // Limits: the target error (the default), the time and the photon count, whichever is reached
+    // first; without --time or --photons, the scene's photon count is the limit (so that a target
+    // the scene cannot reach still ends).
+    const bool timed = o.timeS > 0.0;
+    const std::int64_t photonLimit = o.photons > 0 ? o.photons : (timed ? 0 : scene.render.photons);
     const std::int64_t perPass = options.photonsPerPass();
     // At least two passes, so that the variance estimate exists.
-    const std::int64_t passesWanted = o.timeS > 0.0 ? 0 : std::max<std::int64_t>(2, (target + perPass - 1) / perPass);
+    const std::int64_t passesWanted = photonLimit > 0 ? std::max<std::int64_t>(2, (photonLimit + perPass - 1) / perPass) : 0;
 
     const auto start = std::chrono::steady_clock::now();
     auto lastCheckpoint = start;
@@ -202,14 +245,22 @@ int run(const RenderCommandOptions& o) {
     bool interrupted = false;
     for (;;) {
         const int done = renderer.statistics().passes;
-        if (o.timeS > 0.0 ? (elapsed() >= o.timeS && done >= 2) : done >= passesWanted) break;
+        if (done >= 2) {
+            if (passesWanted > 0 && done >= passesWanted) break;
+            if (timed && elapsed() >= o.timeS) break;
+            if (o.targetError > 0.0 && done >= kMinPassesToStop &&
+                renderer.estimatedRelativeError(kGroupFlare) <= o.targetError)
+                break;
+        }
         if (gInterrupted.load() && done == 0) {
             std::signal(SIGINT, previous);
             std::fprintf(stderr, "interrupted before the first pass: nothing written\n");
             return 130;
         }
         renderer.runPass();
-        if (!o.quiet) printProgress(renderer, passesWanted * perPass, o.timeS, elapsed());
+        if (!o.quiet)
+            printProgress(renderer, progressFraction(renderer, passesWanted * perPass, o.timeS, o.targetError, elapsed()),
+                          o.targetError, elapsed());
         if (gInterrupted.load()) {
             interrupted = true;
             break;
@@ -262,8 +313,11 @@ int run(const RenderCommandOptions& o) {
     else if (!o.checkpoint.empty()) renderer.saveCheckpoint(checkpoint);
 
     if (!o.quiet) {
-        std::fprintf(stderr, "render: %s, %s mode, %lld photons in %.2f s (%.3g photons/s)\n", lens.name().c_str(),
-                     o.mode.c_str(), static_cast<long long>(s.photons), s.seconds, s.seconds > 0 ? s.photons / s.seconds : 0.0);
+        std::fprintf(stderr,
+                     "render: %s, %s mode, %d passes (%lld photons, %lld beams) in %.2f s, estimated error of the flare "
+                     "%.2g%%\n",
+                     lens.name().c_str(), o.mode.c_str(), s.passes, static_cast<long long>(s.photons),
+                     static_cast<long long>(s.beams), s.seconds, 100.0 * renderer.estimatedRelativeError(kGroupFlare));
         for (const LightPlan& l : renderer.lights())
             if (l.skipped) std::fprintf(stderr, "  skipped light %s: %s\n", l.name.c_str(), l.skipReason.c_str());
     }
@@ -283,11 +337,13 @@ void addRenderCommand(CLI::App& app) {
                        "guided (default: beams and photons), photons (guided photons only) or naive (the unguided "
                        "tracer alone)")
         ->check(CLI::IsMember({"naive", "guided", "photons"}));
-    auto* photons = render->add_option("--photons", o->photons, "photons to trace (default: the scene's)")
-                        ->check(CLI::PositiveNumber);
-    render->add_option("--time", o->timeS, "trace for this many seconds instead of a photon count")
-        ->check(CLI::PositiveNumber)
-        ->excludes(photons);
+    render->add_option("--photons", o->photons, "stop after this many photons at the latest")->check(CLI::PositiveNumber);
+    render->add_option("--time", o->timeS, "stop after this many seconds at the latest")->check(CLI::PositiveNumber);
+    render->add_option("--target-error", o->targetError,
+                       "stop when the estimated relative L2 error of the flare without the direct image (ghost + higher "
+                       "+ scatter) falls below this (default 0.02; 0: none); --time, --photons or else the scene's "
+                       "photon count limit the render")
+        ->check(CLI::Range(0.0, 1.0));
     render->add_option("--max-bounces", o->maxBounces, "stop photons after K reflections (-1: unbounded)")
         ->check(CLI::Range(-1, 1000));
     render->add_option("--seed", o->seed, "random seed (default: the scene's)")->check(CLI::NonNegativeNumber);
