@@ -54,26 +54,28 @@ InterfaceTables::InterfaceTables(const LensSystem& lens, const SpectralIndices& 
                 exactFrom = critical - 2.0 * h;
                 exactTo = critical + 0.05;
             }
-            for (bool reflect : {false, true}) {
-                auto f = [&](double c) {
-                    const FresnelTerms t = interfaceResponse(lens, indices, k, direction, std::clamp(c, 0.0, 1.0));
-                    return reflect ? t.reflectance() : t.transmittance();
-                };
-                Table& t = tables_[(static_cast<size_t>(k) * 2 + (direction > 0 ? 1 : 0)) * 2 + (reflect ? 1 : 0)];
-                t.exactFrom = exactFrom;
-                t.exactTo = exactTo;
-                t.value.resize(intervals_ + 1);
-                t.slope.resize(intervals_ + 1);
-                // Slopes by central differences (one-sided at the ends): with a step of 1e-6 the
-                // rounding error (~1e-10) and the truncation error (~1e-12 times the third
-                // derivative) of a slope move the interpolant by about 1e-13.
-                constexpr double d = 1e-6;
-                for (int i = 0; i <= intervals_; ++i) {
-                    const double c = i * h;
-                    t.value[i] = f(c);
-                    const double lo = std::max(0.0, c - d), hi = std::min(1.0, c + d);
-                    t.slope[i] = (f(hi) - f(lo)) / (hi - lo);
-                }
+            // Each response gives both factors: one evaluation per point fills both tables.
+            Table& transmit = tables_[(static_cast<size_t>(k) * 2 + (direction > 0 ? 1 : 0)) * 2];
+            Table& reflect = tables_[(static_cast<size_t>(k) * 2 + (direction > 0 ? 1 : 0)) * 2 + 1];
+            for (Table* t : {&transmit, &reflect}) {
+                t->exactFrom = exactFrom;
+                t->exactTo = exactTo;
+                t->value.resize(intervals_ + 1);
+                t->slope.resize(intervals_ + 1);
+            }
+            auto f = [&](double c) { return interfaceResponse(lens, indices, k, direction, std::clamp(c, 0.0, 1.0)); };
+            // Slopes by central differences (one-sided at the ends): with a step of 1e-6 the
+            // rounding error (~1e-10) and the truncation error (~1e-12 times the third
+            // derivative) of a slope move the interpolant by about 1e-13.
+            constexpr double d = 1e-6;
+            for (int i = 0; i <= intervals_; ++i) {
+                const double c = i * h;
+                const double lo = std::max(0.0, c - d), hi = std::min(1.0, c + d);
+                const FresnelTerms at = f(c), below = f(lo), above = f(hi);
+                transmit.value[i] = at.transmittance();
+                reflect.value[i] = at.reflectance();
+                transmit.slope[i] = (above.transmittance() - below.transmittance()) / (hi - lo);
+                reflect.slope[i] = (above.reflectance() - below.reflectance()) / (hi - lo);
             }
         }
     }

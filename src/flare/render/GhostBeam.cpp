@@ -434,8 +434,14 @@ void GhostBeam::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3
             const double xl = std::min(along, across), xr = std::max(along, across);
             const int c1 = std::max(columnLo, static_cast<int>(std::ceil(xl - 0.5)));
             const int c2 = std::min(columnHi, static_cast<int>(std::ceil(xr - 0.5)) - 1);
-            for (int column = c1; column <= c2; ++column)
-                add(column, row, c0 + gx * (column + 0.5) + gy * y);
+            const double rowValue = c0 + gy * y;
+            double* q = rows + (static_cast<size_t>(row - rowBegin) * width + c1) * 3;
+            for (int column = c1; column <= c2; ++column, q += 3) {
+                const double e = rowValue + gx * (column + 0.5);
+                q[0] += e * scale.x;
+                q[1] += e * scale.y;
+                q[2] += e * scale.z;
+            }
         }
     }
 }
