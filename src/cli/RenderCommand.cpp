@@ -31,6 +31,7 @@ struct RenderCommandOptions {
     std::string exr, png, report, checkpoint;
     std::string mode = "guided";
     std::string kernel = "fixed";
+    std::string higherOrder = "auto";
     double radiusPx = 1.0;
     long long photons = -1;  // −1: the scene's
     double timeS = 0.0;
@@ -76,7 +77,14 @@ nlohmann::json reportJson(const Renderer& renderer, const Scene& scene, const Le
     nlohmann::json skipped = nlohmann::json::array();
     for (const LightPlan& l : renderer.lights()) {
         lights.push_back({{"name", l.name}, {"entering_power_w", l.enteringPowerW}, {"kept_ghosts", l.keptGhosts},
-                          {"beam_ghosts", l.beamGhosts}, {"pruned_ghosts", l.prunedGhosts}, {"skipped", l.skipped}});
+                          {"beam_ghosts", l.beamGhosts}, {"pruned_ghosts", l.prunedGhosts}, {"skipped", l.skipped},
+                          {"higher_order",
+                           {{"share_estimate", l.higherOrderShareEstimate},
+                            {"guided", l.higherOrderGuided},
+                            {"paths", l.higherOrderPaths},
+                            {"why", l.higherOrderGuided ? "the lens's reflectances make order-4 chains matter"
+                                                        : "left to the unguided tracer: estimated below the threshold "
+                                                          "(or --higher-order off)"}}}});
         if (l.skipped) skipped.push_back({{"light", l.name}, {"reason", l.skipReason}});
     }
     j["lights"] = lights;
@@ -114,7 +122,8 @@ nlohmann::json reportJson(const Renderer& renderer, const Scene& scene, const Le
 
     std::vector<const PathTally*> ghosts;
     for (const PathTally& t : renderer.tallies())
-        if (t.kind == PathTally::Kind::Ghost && (t.sumMeans != 0.0 || t.guided)) ghosts.push_back(&t);
+        if (t.kind == PathTally::Kind::Ghost && (t.sumMeans != 0.0 || t.sumPassMeans != 0.0 || t.guided))
+            ghosts.push_back(&t);
     std::stable_sort(ghosts.begin(), ghosts.end(), [&](const PathTally* a, const PathTally* b) {
         return renderer.tallyPowerW(*a) > renderer.tallyPowerW(*b);
     });
@@ -202,7 +211,13 @@ int run(const RenderCommandOptions& o) {
     options.seed = o.seed >= 0 ? static_cast<std::uint64_t>(o.seed) : scene.render.seed;
     options.maxBounces = o.maxBounces >= -1 ? o.maxBounces : scene.render.maxBounces;
     options.perGhostLayers = o.layers;
-    options.analysis.order = scene.render.ghostOrder;
+    // The ghosts are the order-2 paths; a scene's ghost_order 4 asks for the order-4 chains to be
+    // guided as well (in the `higher` layer).
+    options.analysis.order = 2;
+    options.higherOrder = o.higherOrder == "on" || (o.higherOrder == "auto" && scene.render.ghostOrder == 4)
+                              ? RenderOptions::HigherOrder::On
+                          : o.higherOrder == "off" ? RenderOptions::HigherOrder::Off
+                                                   : RenderOptions::HigherOrder::Auto;
     options.analysis.includeSensor = scene.render.includeSensorGhosts;
     options.analysis.keepShare = scene.render.pruneKeepShare;
     options.analysis.relativeThreshold = scene.render.pruneRelativeThreshold;
@@ -355,6 +370,10 @@ void addRenderCommand(CLI::App& app) {
                        "checkpoint file: resumed from if it exists, written periodically, on Ctrl-C and at the end");
     render->add_option("--checkpoint-interval", o->checkpointIntervalS, "seconds between checkpoints (default 60)")
         ->check(CLI::PositiveNumber);
+    render->add_option("--higher-order", o->higherOrder,
+                       "guide the strongest order-4 chains too: auto (default: when the lens's reflectances make "
+                       "them matter), on or off")
+        ->check(CLI::IsMember({"auto", "on", "off"}));
     render->add_option("--kernel", o->kernel, "density estimation: fixed (default), progressive or adaptive")
         ->check(CLI::IsMember({"fixed", "progressive", "adaptive"}));
     render->add_option("--radius", o->radiusPx, "kernel radius in pixels (fixed; first pass for progressive)")

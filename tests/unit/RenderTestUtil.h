@@ -33,6 +33,10 @@ inline RenderOptions sceneRenderOptions(const Scene& scene, const LensSystem& le
     RenderOptions o;
     o.mode = mode;
     o.seed = seed;
+    // Small passes: the tests want many independent passes (their spread is the standard error
+    // of the beams' part) more than large ones.
+    o.batchesPerPass = 16;
+    o.beamsPerPass = 32;
     o.film.widthPx = scene.sensor.widthPx;
     o.film.heightPx = scene.sensor.heightPx;
     o.film.widthMm = lens.sensor().widthMm;

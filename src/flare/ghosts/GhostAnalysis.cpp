@@ -96,6 +96,35 @@ void pruneGhosts(std::vector<GhostEstimate>& ghosts, double keepShare, double re
     }
 }
 
+void appendGhostPaths(const LensSystem& lens, const std::vector<GhostPath>& paths, const GhostAnalysisOptions& options,
+                      GhostReport& report) {
+    const SpectralIndices indices = lens.indicesAt(options.wavelengthNm);
+    // The Fresnel/coating factors, tabulated once for all paths.
+    const InterfaceTables tables(lens, indices);
+    std::vector<GhostEstimate> estimates(paths.size());
+    // One path per task: their costs differ by orders of magnitude (a path dead at the second
+    // surface against a live one meeting fifty), so let TBB balance them one by one.
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, paths.size(), 1),
+                      [&](const tbb::blocked_range<size_t>& range) {
+                          for (size_t i = range.begin(); i != range.end(); ++i)
+                              estimates[i] = estimate(lens, indices, &tables, report.grid, report.enteringAreaMm2,
+                                                      paths[i], options);
+                      },
+                      tbb::simple_partitioner());
+    // Strongest first; ties keep enumeration order so that reports are deterministic.
+    std::stable_sort(estimates.begin(), estimates.end(),
+                     [](const GhostEstimate& a, const GhostEstimate& b) { return a.powerFraction > b.powerFraction; });
+    pruneGhosts(estimates, options.keepShare, options.relativeThreshold);
+    for (GhostEstimate& g : estimates) {
+        report.totalGhostPowerFraction += g.powerFraction;
+        if (g.pruned) {
+            ++report.prunedCount;
+            report.prunedPowerFraction += g.powerFraction;
+        }
+        report.ghosts.push_back(std::move(g));
+    }
+}
+
 GhostReport analyseGhosts(const LensSystem& lens, const glm::dvec3& lightDirection,
                           const GhostAnalysisOptions& options) {
     GhostReport report;
@@ -107,28 +136,7 @@ GhostReport analyseGhosts(const LensSystem& lens, const glm::dvec3& lightDirecti
     const InterfaceTables tables(lens, indices);
     report.direct = estimate(lens, indices, &tables, report.grid, report.enteringAreaMm2, GhostPath{}, options);
 
-    const std::vector<GhostPath> paths = enumerateGhosts(lens, options.order, options.includeSensor);
-    report.ghosts.resize(paths.size());
-    // One path per task: their costs differ by orders of magnitude (a path dead at the second
-    // surface against a live one meeting fifty), so let TBB balance them one by one.
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, paths.size(), 1),
-                      [&](const tbb::blocked_range<size_t>& range) {
-                          for (size_t i = range.begin(); i != range.end(); ++i)
-                              report.ghosts[i] = estimate(lens, indices, &tables, report.grid,
-                                                          report.enteringAreaMm2, paths[i], options);
-                      },
-                      tbb::simple_partitioner());
-    // Strongest first; ties keep enumeration order so that reports are deterministic.
-    std::stable_sort(report.ghosts.begin(), report.ghosts.end(),
-                     [](const GhostEstimate& a, const GhostEstimate& b) { return a.powerFraction > b.powerFraction; });
-    pruneGhosts(report.ghosts, options.keepShare, options.relativeThreshold);
-    for (const GhostEstimate& g : report.ghosts) {
-        report.totalGhostPowerFraction += g.powerFraction;
-        if (g.pruned) {
-            ++report.prunedCount;
-            report.prunedPowerFraction += g.powerFraction;
-        }
-    }
+    appendGhostPaths(lens, enumerateGhosts(lens, options.order, options.includeSensor), options, report);
     return report;
 }
 

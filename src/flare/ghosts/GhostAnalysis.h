@@ -91,6 +91,12 @@ GhostEstimate estimatePath(const LensSystem& lens, const SpectralIndices& indice
 GhostReport analyseGhosts(const LensSystem& lens, const glm::dvec3& lightDirection,
                           const GhostAnalysisOptions& options);
 
+// Estimates `paths` for the light of `report` (its grid and entering area), in parallel and
+// deterministically, sorts them strongest first, prunes them among themselves and appends them to
+// report.ghosts (the totals follow). The final render adds the strongest order-4 chains so.
+void appendGhostPaths(const LensSystem& lens, const std::vector<GhostPath>& paths, const GhostAnalysisOptions& options,
+                      GhostReport& report);
+
 // Marks ghosts as pruned: the kept set is the strongest ghosts whose cumulative power reaches
 // keepShare of the total, plus every ghost above relativeThreshold × the strongest. Expects
 // `ghosts` sorted by power.

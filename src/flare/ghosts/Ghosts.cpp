@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "flare/optics/Paraxial.h"
+#include "flare/optics/SequentialTracer.h"
 
 namespace flare {
 
@@ -59,6 +60,31 @@ std::vector<GhostPath> enumerateGhosts(const LensSystem& lens, int order, bool i
     std::vector<int> prefix;
     extend(surfaces, prefix, order, paths);
     return paths;
+}
+
+namespace {
+
+double surfaceReflectance(const LensSystem& lens, const SpectralIndices& indices, int k) {
+    return k == lens.surfaceCount() ? lens.sensor().reflectance
+                                    : interfaceResponse(lens, indices, k, 1, 1.0).reflectance();
+}
+
+}  // namespace
+
+double normalIncidenceReflectance(const LensSystem& lens, const SpectralIndices& indices, const GhostPath& path) {
+    double product = 1.0;
+    for (int k : path.reflections) product *= surfaceReflectance(lens, indices, k);
+    return product;
+}
+
+double higherOrderShareEstimate(const LensSystem& lens, const SpectralIndices& indices, bool includeSensor) {
+    double sum = 0.0, sumSquares = 0.0;
+    for (int k : reflectingSurfaces(lens, includeSensor)) {
+        const double r = surfaceReflectance(lens, indices, k);
+        sum += r;
+        sumSquares += r * r;
+    }
+    return 0.25 * 0.5 * (sum * sum - sumSquares);
 }
 
 GhostParaxial analyseGhostParaxial(const LensSystem& lens, const SpectralIndices& indices,

@@ -98,9 +98,10 @@ struct Renderer::LightState {
     std::vector<PathStrategy> strategy;     // per slot
     std::vector<int> layer;                 // per slot: the fixed layer its light lands in
     // Beam-rendered slots: the wavelength sampler weighted by the path's throughput, and the
-    // number of beams per pass.
+    // expected number of beams per pass (a pass draws its floor, plus one more with the
+    // probability of its fraction, and weights every beam by one over the expectation).
     std::vector<std::unique_ptr<WavelengthSampler>> beamWavelengths;
-    std::vector<int> beamsPerPass;
+    std::vector<double> beamRate;
     int tallyOffset = 0;                    // tallies: offset + slot, then higher, then scatter
     int slots = 0;
 
@@ -158,6 +159,37 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
                          analyseGhosts(lens, spec.travelDirection(), options.analysis), {}, {}, {}, {}, {}, {}, {}, 0, 0};
         LightPlan plan;
         plan.name = spec.name;
+        // Longer chains: the strongest order-4 paths are enumerated and guided too when the lens's
+        // reflectances make them matter (uncoated glass: a few per cent of the ghosts' power),
+        // else they stay with the unguided tracer (coated glass: about R² of the ghosts').
+        plan.higherOrderShareEstimate = higherOrderShareEstimate(
+            lens, lens.indicesAt(options.analysis.wavelengthNm), options.analysis.includeSensor);
+        plan.higherOrderGuided =
+            options.mode != RenderOptions::Mode::Naive && options.analysis.order == 2 &&
+            (options.higherOrder == RenderOptions::HigherOrder::On ||
+             (options.higherOrder == RenderOptions::HigherOrder::Auto &&
+              plan.higherOrderShareEstimate >= options.higherOrderThreshold));
+        if (plan.higherOrderGuided) {
+            // Their power spreads over hundreds of paths, and vignetting, not the reflectances,
+            // decides which are strong: every chain is analysed.
+            const std::vector<GhostPath> chains = enumerateGhosts(lens, 4, options.analysis.includeSensor);
+            const size_t before = state.report.ghosts.size();
+            GhostAnalysisOptions chainOptions = options.analysis;
+            chainOptions.order = 4;
+            chainOptions.keepShare = options.higherOrderKeepShare;
+            appendGhostPaths(lens, chains, chainOptions, state.report);
+            int kept = 0;
+            for (size_t g = before; g < state.report.ghosts.size(); ++g) {
+                GhostEstimate& estimate = state.report.ghosts[g];
+                if (!estimate.pruned && kept >= options.maxHigherOrderPaths) {
+                    estimate.pruned = true;
+                    ++state.report.prunedCount;
+                    state.report.prunedPowerFraction += estimate.powerFraction;
+                }
+                kept += !estimate.pruned;
+            }
+            plan.higherOrderPaths = kept;
+        }
         const GhostReport& report = state.report;
         state.slots = 1 + static_cast<int>(report.ghosts.size());
         state.tallyOffset = static_cast<int>(tallies_.size());
@@ -211,7 +243,7 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
         for (int slot = 1; slot < state.slots; ++slot)
             if (report.ghosts[slot - 1].path.reflections.size() > 2) state.layer[slot] = kLayerHigher;
         state.beamWavelengths.resize(state.slots);
-        state.beamsPerPass.assign(state.slots, 0);
+        state.beamRate.assign(state.slots, 0.0);
         std::vector<double> beamWeight(state.slots, 0.0);
         if (options.mode != RenderOptions::Mode::Naive && !plan.skipped) {
             // Guide masks: the analysed regions re-traced with a margin around the sensor (see
@@ -282,16 +314,16 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
         for (double w : beamWeight) totalBeamWeight += w;
         for (int slot = 1; slot < state.slots; ++slot)
             if (state.strategy[slot] == PathStrategy::Beams) {
-                state.beamsPerPass[slot] = std::max(
-                    1, static_cast<int>(std::lround(options.beamsPerPass * beamWeight[slot] / totalBeamWeight)));
+                state.beamRate[slot] = options.beamsPerPass * beamWeight[slot] / totalBeamWeight;
                 ++plan.beamGhosts;
             }
         for (size_t g = 0; g < report.ghosts.size(); ++g) {
+            const bool chain = report.ghosts[g].path.reflections.size() > 2;
             if (report.ghosts[g].pruned) {
-                ++plan.prunedGhosts;
+                plan.prunedGhosts += !chain;
                 continue;
             }
-            ++plan.keptGhosts;
+            plan.keptGhosts += !chain;
             if (!options.perGhostLayers) continue;
             const std::string label = report.ghosts[g].path.label();
             auto [it, inserted] = ghostLayerOfLabel.try_emplace(label, static_cast<int>(layerNames_.size()));
@@ -490,7 +522,7 @@ void Renderer::traceBeam(BeamJob& job) const {
     const LightState& light = lightStates_[job.light];
     const GhostEstimate& estimate = light.report.ghosts[job.slot - 1];
     const GuideMask& mask = light.masks[job.slot];
-    const int beams = light.beamsPerPass[job.slot];
+    const double beams = light.beamRate[job.slot];
     const std::uint64_t pass = static_cast<std::uint64_t>(statistics_.passes);
     // The path's samples of this pass: the first `beams` points of the Sobol' sequence, with a
     // random digital shift of the pass (so that passes are independent estimates).
@@ -554,7 +586,7 @@ void Renderer::traceBeam(BeamJob& job) const {
 
     // Film units: the pass's image is its accumulated power over photonsPerPass (the film's
     // divisor), and the path's estimate is the mean of its beams.
-    const double perBeam = static_cast<double>(options_.photonsPerPass()) / beams;
+    const double perBeam = static_cast<double>(options_.photonsPerPass()) / beams;  // beams: the expectation
     job.scale = xyzWeight * (central.powerPerMm2 * perBeam);
     job.powerY = job.beam.powerOnSensor() * central.powerPerMm2 * xyzWeight.y / static_cast<double>(beams);
 
@@ -667,14 +699,23 @@ void Renderer::runPass() {
     std::vector<BeamJob> beamJobs;
     for (size_t l = 0; l < lightStates_.size(); ++l) {
         const LightState& light = lightStates_[l];
-        for (int slot = 1; slot < light.slots; ++slot)
-            for (int k = 0; k < light.beamsPerPass[slot]; ++k) {
+        for (int slot = 1; slot < light.slots; ++slot) {
+            // The path's beams this pass: the expected number's floor, and one more with the
+            // probability of its fraction (the estimate divides by the expectation: unbiased).
+            const double rate = light.beamRate[slot];
+            if (!(rate > 0.0)) continue;
+            Rng countRng(options_.seed ^ 0xc0c0a0a0u, (static_cast<std::uint64_t>(statistics_.passes) << 32) ^
+                                                        (static_cast<std::uint64_t>(l) << 20) ^
+                                                        static_cast<std::uint64_t>(slot));
+            const int count = static_cast<int>(rate) + (countRng.uniform() < rate - std::floor(rate) ? 1 : 0);
+            for (int k = 0; k < count; ++k) {
                 BeamJob job;
                 job.light = static_cast<int>(l);
                 job.slot = slot;
                 job.index = k;
                 beamJobs.push_back(std::move(job));
             }
+        }
     }
     // Beams first (they cost more each), then the photon batches: one loop balances both.
     const int jobs = static_cast<int>(beamJobs.size()) + batches;
@@ -777,7 +818,8 @@ std::uint64_t Renderer::fingerprint() const {
         for (size_t i = 0; i < size; ++i) hash = (hash ^ bytes[i]) * 0x100000001b3ull;
     };
     mix(&options_.seed, sizeof options_.seed);
-    const int ints[] = {static_cast<int>(options_.mode), options_.maxBounces, options_.batchPhotons,
+    const int ints[] = {static_cast<int>(options_.mode), static_cast<int>(options_.higherOrder), options_.maxBounces,
+                        options_.batchPhotons,
                         options_.batchesPerPass, film_.layerCount(), options_.film.widthPx, options_.film.heightPx,
                         static_cast<int>(options_.film.kernel), lens_->surfaceCount(), options_.beamsPerPass,
                         options_.correctionPhotonsPerBeam, options_.beamMeshLevel};
@@ -787,7 +829,7 @@ std::uint64_t Renderer::fingerprint() const {
         mix(&c.slot, sizeof c.slot);
         mix(&c.probability, sizeof c.probability);
     }
-    for (const LightState& light : lightStates_) mix(light.beamsPerPass.data(), light.beamsPerPass.size() * sizeof(int));
+    for (const LightState& light : lightStates_) mix(light.beamRate.data(), light.beamRate.size() * sizeof(double));
     const double doubles[] = {options_.film.radiusPx, options_.materials.housingAlbedo, options_.materials.edgeAlbedo,
                               options_.materials.irisAlbedo, lens_->sensorZMm(), lens_->iris().radiusMm()};
     mix(doubles, sizeof doubles);

@@ -65,12 +65,23 @@ struct RenderOptions {
     double directShare = 0.1;
     int batchPhotons = 1024;
     int batchesPerPass = 64;
-    // Beams of a pass, per light, shared among its beam-rendered paths (each gets at least one),
-    // and the correction photons traced with each beam.
+    // Beams of a pass, per light (in expectation), shared among its beam-rendered paths in
+    // proportion to √(variance per beam / cost) as a probe beam estimates them; and the
+    // correction photons traced with each beam.
     int beamsPerPass = 256;
     int correctionPhotonsPerBeam = 0;
     // Beams are meshed on the ghost analysis's cells split to this level (PupilRemeshOptions).
     int beamMeshLevel = 2;
+    // Chains of four reflections (the `higher` layer): the strongest are enumerated and guided
+    // like ghosts when the lens's reflectances make them matter (Auto: when the estimated ratio of
+    // their power to the ghosts', higherOrderShareEstimate, reaches the threshold), else they are
+    // left to the unguided tracer. The strongest chains holding higherOrderKeepShare of their
+    // analysed power are kept, at most maxHigherOrderPaths.
+    enum class HigherOrder { Auto, Off, On };
+    HigherOrder higherOrder = HigherOrder::Auto;
+    double higherOrderThreshold = 1e-3;
+    double higherOrderKeepShare = 0.99;  // of the chains' analysed power
+    int maxHigherOrderPaths = 512;
 
     std::int64_t photonsPerPass() const { return static_cast<std::int64_t>(batchPhotons) * batchesPerPass; }
 };
@@ -117,6 +128,11 @@ struct LightPlan {
     double enteringPowerW = 0.0;  // the light's power entering the front clear aperture (nominal)
     int keptGhosts = 0, prunedGhosts = 0;
     int beamGhosts = 0;           // kept ghosts rendered by beams
+    // Order-4 chains: the estimated ratio of their power to the ghosts' (higherOrderShareEstimate
+    // in Ghosts.h), whether they were enumerated and guided, and how many were kept.
+    double higherOrderShareEstimate = 0.0;
+    bool higherOrderGuided = false;
+    int higherOrderPaths = 0;
 };
 
 struct FateTally {

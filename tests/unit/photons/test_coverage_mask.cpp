@@ -271,8 +271,8 @@ TEST(CoverageMask, GuidedAgreesWithNaiveWithMaskedDustAndGrease) {
     const LensSystem lens = buildSceneLens(scene);
     Renderer naive(lens, scene.lights, test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Naive));
     Renderer guided(lens, scene.lights, test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Guided));
-    for (int p = 0; p < 30; ++p) naive.runPass();
-    for (int p = 0; p < 8; ++p) guided.runPass();
+    for (int p = 0; p < 120; ++p) naive.runPass();
+    for (int p = 0; p < 32; ++p) guided.runPass();
     test::expectGuidedAgreesWithNaive(guided, naive, {kLayerDirect, kLayerGhost, kLayerScatter});
     EXPECT_GT(naive.tallyPowerW(naive.scatterSourceTallies()[static_cast<int>(ScatterSource::Dust) - 1]), 0.0);
     EXPECT_GT(naive.tallyPowerW(naive.scatterSourceTallies()[static_cast<int>(ScatterSource::Grease) - 1]), 0.0);

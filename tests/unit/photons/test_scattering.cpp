@@ -231,8 +231,8 @@ TEST(Scattering, GuidedAgreesWithNaiveWithDustAndBulkScattering) {
     const LensSystem lens = buildSceneLens(scene);
     Renderer naive(lens, scene.lights, test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Naive));
     Renderer guided(lens, scene.lights, test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Guided));
-    for (int p = 0; p < 30; ++p) naive.runPass();
-    for (int p = 0; p < 8; ++p) guided.runPass();
+    for (int p = 0; p < 120; ++p) naive.runPass();
+    for (int p = 0; p < 32; ++p) guided.runPass();
     // Direct, ghost and scatter: the layers the clear-crossing weight and the ownership rule act
     // on. (`higher` comes from a few rare photons in this short guided run, too few for its
     // standard error to mean much; Render.GuidedAgreesWithNaivePerGhostAndPerLayer covers it.)

@@ -45,6 +45,10 @@ RenderOptions optionsFor(const Scene& scene, const LensSystem& lens, RenderOptio
     RenderOptions o;
     o.mode = mode;
     o.seed = 17;
+    // Small passes: the tests want many independent passes (their spread is the standard error
+    // of the beams' part) more than large ones.
+    o.batchesPerPass = 16;
+    o.beamsPerPass = 32;
     o.film.widthPx = scene.sensor.widthPx;
     o.film.heightPx = scene.sensor.heightPx;
     o.film.widthMm = lens.sensor().widthMm;
@@ -68,18 +72,20 @@ TEST(Render, GuidedAgreesWithNaivePerGhostAndPerLayer) {
     const LensSystem lens = buildSceneLens(scene);
     Renderer naive(lens, scene.lights, optionsFor(scene, lens, RenderOptions::Mode::Naive));
     Renderer guided(lens, scene.lights, optionsFor(scene, lens, RenderOptions::Mode::Guided));
-    for (int pass = 0; pass < 40; ++pass) naive.runPass();
-    for (int pass = 0; pass < 8; ++pass) guided.runPass();
+    for (int pass = 0; pass < 160; ++pass) naive.runPass();
+    for (int pass = 0; pass < 30; ++pass) guided.runPass();
 
-    ASSERT_EQ(naive.tallies().size(), guided.tallies().size());
+    // Per path: the guided render also enumerates order-4 chains for this uncoated lens (they are
+    // part of naive's `higher`); the paths both tally are compared by label.
     struct Pair { std::string what; double g, sg, n, sn; };
     std::vector<Pair> pairs;
-    for (size_t t = 0; t < naive.tallies().size(); ++t) {
-        const PathTally& a = guided.tallies()[t];
-        const PathTally& b = naive.tallies()[t];
-        ASSERT_EQ(a.path, b.path);
-        pairs.push_back({"tally " + std::to_string(t) + " " + a.path.label(), guided.tallyPowerW(a),
-                         guided.tallyStandardErrorW(a), naive.tallyPowerW(b), naive.tallyStandardErrorW(b)});
+    for (const PathTally& b : naive.tallies()) {
+        const PathTally* a = nullptr;
+        for (const PathTally& t : guided.tallies())
+            if (t.kind == b.kind && t.light == b.light && t.path == b.path) a = &t;
+        ASSERT_NE(a, nullptr) << b.path.label();
+        pairs.push_back({"tally " + b.path.label() + " (" + toString(a->strategy) + ")", guided.tallyPowerW(*a),
+                         guided.tallyStandardErrorW(*a), naive.tallyPowerW(b), naive.tallyStandardErrorW(b)});
     }
     for (size_t l = 0; l < naive.layerTallies().size(); ++l)
         pairs.push_back({std::string("layer ") + renderLayerName(static_cast<int>(l)),
@@ -97,11 +103,9 @@ TEST(Render, GuidedAgreesWithNaivePerGhostAndPerLayer) {
         ghostsCompared += p.what.find("ghost_") != std::string::npos;
     }
     EXPECT_GE(ghostsCompared, 6);
-    // The guided strategy is the more precise one on the ghosts it owns (the point of it).
-    const PathTally& ghostLayerGuided = guided.layerTallies()[kLayerGhost];
-    const PathTally& ghostLayerNaive = naive.layerTallies()[kLayerGhost];
-    EXPECT_LT(guided.tallyStandardErrorW(ghostLayerGuided) / guided.tallyPowerW(ghostLayerGuided),
-              0.5 * naive.tallyStandardErrorW(ghostLayerNaive) / naive.tallyPowerW(ghostLayerNaive));
+    // The guided strategy is the more precise one on the ghosts it owns (the point of it): its
+    // ghost image's estimated error is far below naive's after fewer passes.
+    EXPECT_LT(guided.estimatedRelativeError(kGroupGhost), 0.25 * naive.estimatedRelativeError(kGroupGhost));
 }
 
 TEST(Render, EveryUnguidedPhotonIsAccountedFor) {
@@ -139,7 +143,9 @@ TEST(Render, ForcedSequenceAgreesWithThePreview) {
     const Scene scene = doubletScene(0.0);
     const LensSystem lens = buildSceneLens(scene);
     Renderer guided(lens, scene.lights, optionsFor(scene, lens, RenderOptions::Mode::Guided));
-    for (int pass = 0; pass < 6; ++pass) guided.runPass();
+    // Enough passes for the beams' per-pass standard errors (weak paths get a beam in only some
+    // passes) to be trusted in a z-test.
+    for (int pass = 0; pass < 40; ++pass) guided.runPass();
 
     const LightSpec& spec = scene.lights.front();
     PreviewLight light;
