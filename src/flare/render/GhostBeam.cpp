@@ -204,6 +204,15 @@ GhostBeam GhostBeam::build(const BundleTracer& tracer, const PupilGrid& grid, co
     return beam;
 }
 
+GhostBeam GhostBeam::fromTriangles(std::vector<BeamTriangle> triangles, const FilmFrame& frame) {
+    GhostBeam beam;
+    beam.frame_ = frame;
+    beam.triangles_ = std::move(triangles);
+    beam.bucketByBand();
+    beam.index();
+    return beam;
+}
+
 void GhostBeam::bucketByBand() {
     const int bands = std::max(1, (frame_.heightPx + Film::kBandRows - 1) / Film::kBandRows);
     // Rows a triangle may touch: its image ± the jitter (1 px) ± a splat's reach (1 px).

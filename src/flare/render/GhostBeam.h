@@ -86,6 +86,10 @@ public:
                            const GuideMask& mask, const FilmFrame& frame, const PupilRemeshOptions& options,
                            const std::function<double(const glm::dvec2& pupilMm)>& clearFactor = {});
 
+    // A beam of given triangles (pupil and pixel positions, throughput and irradiance per vertex,
+    // pupil and image areas, `small` set by the caller), for tests and tools.
+    static GhostBeam fromTriangles(std::vector<BeamTriangle> triangles, const FilmFrame& frame);
+
     bool empty() const { return triangles_.empty(); }
     const std::vector<BeamTriangle>& triangles() const { return triangles_; }
     long tracedRays() const { return tracedRays_; }

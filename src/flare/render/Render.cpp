@@ -544,7 +544,8 @@ void Renderer::traceBeam(BeamJob& job) const {
     const glm::dvec3 xyzWeight = wavelengths.xyzWeight(wavelengthNm, pdfPerNm);
     const glm::dvec2 lightU = concentricToPolarUniforms(u[1], u[2]);
     const EmittedRay central = light.sampler.rayThrough(0.0, 0.0, lightU.x, lightU.y);
-    job.jitterPx = tentJitter(u[3], u[4]);
+    // (A test's deliberate error: the jitter moves the sampled image, so a shifted jitter shifts it.)
+    job.jitterPx = tentJitter(u[3], u[4]) - glm::dvec2(options_.testBeamShiftPx, 0.0);
     job.seed = rng.next();
 
     const LensSystem& lens = *lens_;
@@ -822,7 +823,8 @@ std::uint64_t Renderer::fingerprint() const {
                         options_.batchPhotons,
                         options_.batchesPerPass, film_.layerCount(), options_.film.widthPx, options_.film.heightPx,
                         static_cast<int>(options_.film.kernel), lens_->surfaceCount(), options_.beamsPerPass,
-                        options_.correctionPhotonsPerBeam, options_.beamMeshLevel};
+                        options_.correctionPhotonsPerBeam, options_.beamMeshLevel,
+                        static_cast<int>(std::lround(options_.testBeamShiftPx * 1024.0))};
     mix(ints, sizeof ints);
     for (const Component& c : components_) {
         mix(&c.light, sizeof c.light);

@@ -72,6 +72,9 @@ struct RenderOptions {
     int correctionPhotonsPerBeam = 0;
     // Beams are meshed on the ghost analysis's cells split to this level (PupilRemeshOptions).
     int beamMeshLevel = 2;
+    // Fault injection for tests only: moves every beam's image by this many pixels (to the
+    // right), which biases the render; the tests check that their comparisons catch it.
+    double testBeamShiftPx = 0.0;
     // Chains of four reflections (the `higher` layer): the strongest are enumerated and guided
     // like ghosts when the lens's reflectances make them matter (Auto: when the estimated ratio of
     // their power to the ghosts', higherOrderShareEstimate, reaches the threshold), else they are
