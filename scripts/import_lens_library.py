@@ -147,8 +147,9 @@ def describe(stem, lens, examples):
         product = lens["name"]
     info["maker"] = canonical_maker(maker_token)
     model = product
-    for prefix in (info["maker"], product.split(" ")[0] if product else ""):
-        if prefix and model.lower().startswith(prefix.lower() + " "):
+    # The model without the maker's name (or the brand it was sold under: "Ricoh smc Pentax ...").
+    for prefix in (info["maker"], "Ricoh", "Konica Minolta", "Konica", "Cosina", "Zhong Yi", "TH Swiss"):
+        if model.lower().startswith(prefix.lower() + " "):
             model = model[len(prefix) + 1:]
     info["model"] = model
     data, example = examples.get(stem, ("", 0))
