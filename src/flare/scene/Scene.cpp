@@ -149,8 +149,8 @@ std::string resolveLens(const Checker& c, const Node& node, const std::string& b
     }
     c.fail(node.line, "lens",
            "no lens file '" + file.string() + "'" + (file.string() != value ? " (relative to the scene's folder)" : "") +
-               " and no shipped or library lens named '" + value + "' (shipped: " + shippedLensNames() +
-               "; `flare lens list` shows the library)");
+               " and no shipped lens named '" + value + "' (shipped: " + shippedLensNames() +
+               "; nor a library lens of that id: `flare lens list` shows them)");
 }
 
 std::string readFile(const std::string& path) {
