@@ -12,12 +12,15 @@
 #include "LensOptions.h"
 #include "Output.h"
 #include <algorithm>
+#include <vector>
 
 #include "flare/core/Error.h"
 #include "flare/ghosts/GhostRays.h"
 #include "flare/ghosts/Ghosts.h"
+#include "flare/optics/LensCheck.h"
 #include "flare/optics/LensDrawing.h"
 #include "flare/optics/LensFile.h"
+#include "flare/optics/LensLibrary.h"
 #include "flare/optics/LensSystem.h"
 #include "flare/optics/Paraxial.h"
 #include "flare/optics/RealRays.h"
@@ -27,7 +30,7 @@ namespace flare::cli {
 namespace {
 
 constexpr const char* kLensHelp =
-    "lens prescription (.lens, or pbrt .dat), or the name of a shipped lens such as double-gauss-50mm";
+    "lens prescription (.lens, or pbrt .dat), the name of a shipped lens such as double-gauss-50mm, or a library id";
 
 nlohmann::json jsonNumber(double value) {
     return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
@@ -143,6 +146,80 @@ void printLensInfo(const nlohmann::json& j) {
     }
 }
 
+nlohmann::json libraryLensJson(const LibraryLens& lens) {
+    nlohmann::json j = {{"id", lens.id},           {"maker", lens.maker},
+                        {"model", lens.model},     {"name", lens.name},
+                        {"kind", lens.kind},       {"tags", lens.tags},
+                        {"focal_length_mm", lens.focalLengthMm},
+                        {"focal_range_mm", {lens.focalMinMm, lens.focalMaxMm}},
+                        {"f_number", lens.fNumber}, {"patent", lens.patent},
+                        {"example", lens.example}, {"collection", lens.collection},
+                        {"file", lens.path}};
+    if (!lens.zoomPositions.empty()) j["zoom_positions"] = lens.zoomPositions;
+    return j;
+}
+
+void printLibraryLenses(const std::vector<const LibraryLens*>& lenses, bool json) {
+    if (json) {
+        nlohmann::json list = nlohmann::json::array();
+        for (const LibraryLens* lens : lenses) list.push_back(libraryLensJson(*lens));
+        std::cout << nlohmann::json{{"lenses", list}}.dump(2) << "\n";
+        return;
+    }
+    for (const LibraryLens* lens : lenses) {
+        char focal[64];
+        if (lens->focalMaxMm > lens->focalMinMm) std::snprintf(focal, sizeof focal, "%g-%g mm", lens->focalMinMm, lens->focalMaxMm);
+        else std::snprintf(focal, sizeof focal, "%g mm", lens->focalLengthMm);
+        std::printf("%-60s %-14s f/%-5g %s\n", lens->id.c_str(), focal, lens->fNumber, lens->name.c_str());
+    }
+    std::printf("%zu lens%s\n", lenses.size(), lenses.size() == 1 ? "" : "es");
+}
+
+// "MIN-MAX", "MIN-" or "-MAX" (mm), or one focal length.
+LibraryFilter focalRange(const std::string& text, LibraryFilter filter) {
+    auto number = [&](const std::string& part) {
+        size_t used = 0;
+        double value = 0.0;
+        try {
+            value = std::stod(part, &used);
+        } catch (const std::exception&) {
+            used = 0;
+        }
+        if (used != part.size() || !(value > 0.0))
+            throw CLI::ValidationError("--focal", "expected MIN-MAX in mm (e.g. 70-200), got '" + text + "'");
+        return value;
+    };
+    const size_t dash = text.find('-');
+    if (dash == std::string::npos) {
+        filter.focalMinMm = filter.focalMaxMm = number(text);
+    } else {
+        if (dash > 0) filter.focalMinMm = number(text.substr(0, dash));
+        if (dash + 1 < text.size()) filter.focalMaxMm = number(text.substr(dash + 1));
+        if (!filter.focalMinMm && !filter.focalMaxMm)
+            throw CLI::ValidationError("--focal", "expected MIN-MAX in mm (e.g. 70-200), got '" + text + "'");
+    }
+    return filter;
+}
+
+nlohmann::json checkJson(const std::string& lens, const LensCheckReport* report, const std::string& loadError) {
+    nlohmann::json j = {{"lens", lens}, {"ok", report && report->ok()}};
+    nlohmann::json failures = nlohmann::json::array();
+    if (!report) failures.push_back({{"check", "load"}, {"zoom", ""}, {"detail", loadError}});
+    if (report) {
+        nlohmann::json positions = nlohmann::json::array();
+        for (const LensCheckPosition& p : report->positions)
+            positions.push_back({{"zoom", p.zoom},
+                                 {"stated_focal_length_mm", p.statedFocalLengthMm},
+                                 {"efl_mm", p.eflMm},
+                                 {"wide_open_f_number", p.wideOpenFNumber}});
+        j["positions"] = positions;
+        for (const LensCheckFailure& f : report->failures)
+            failures.push_back({{"check", f.check}, {"zoom", f.zoom}, {"detail", f.detail}});
+    }
+    j["failures"] = failures;
+    return j;
+}
+
 }  // namespace
 
 void addLensCommands(CLI::App& app) {
@@ -164,6 +241,62 @@ void addLensCommands(CLI::App& app) {
         const nlohmann::json j = lensInfoJson(prescription, system, *wavelength);
         if (*json) std::cout << j.dump(2) << "\n";
         else printLensInfo(j);
+    });
+
+    auto filter = std::make_shared<LibraryFilter>();
+    auto focal = std::make_shared<std::string>();
+    auto listJson = std::make_shared<bool>(false);
+    CLI::App* list = lens->add_subcommand("list", "the lenses of the library (docs/lens-library.md)");
+    list->add_option("--maker", filter->maker, "only this maker (e.g. Nikon; case-insensitive)");
+    list->add_option("--focal", *focal, "focal lengths MIN-MAX in mm (a zoom matches if its range overlaps)");
+    list->add_option("--f-number", filter->maxFNumber, "only lenses at least this fast")->check(CLI::PositiveNumber);
+    list->add_flag("--json", *listJson, "print one JSON object with a `lenses` array");
+    list->callback([filter, focal, listJson] {
+        const LibraryFilter f = focal->empty() ? *filter : focalRange(*focal, *filter);
+        printLibraryLenses(LensLibrary::shared().filter(f), *listJson);
+    });
+
+    auto text = std::make_shared<std::vector<std::string>>();
+    auto searchJson = std::make_shared<bool>(false);
+    CLI::App* search = lens->add_subcommand("search", "library lenses whose id, maker, model, name or patent contain every word");
+    search->add_option("TEXT", *text, "words to look for (e.g. 80-200 2.8)")->required();
+    search->add_flag("--json", *searchJson, "print one JSON object with a `lenses` array");
+    search->callback([text, searchJson] {
+        std::string words;
+        for (const std::string& w : *text) words += w + " ";
+        printLibraryLenses(LensLibrary::shared().search(words), *searchJson);
+    });
+
+    auto checkLenses = std::make_shared<std::vector<std::string>>();
+    auto checkJsonFlag = std::make_shared<bool>(false);
+    CLI::App* check = lens->add_subcommand(
+        "check", "the library's checks on lens files: load, EFL against the stated focal length, stop, axial ray fan");
+    check->add_option("LENS", *checkLenses, kLensHelp)->required();
+    check->add_flag("--json", *checkJsonFlag, "print one JSON object with a `lenses` array");
+    check->callback([checkLenses, checkJsonFlag] {
+        nlohmann::json all = nlohmann::json::array();
+        int failed = 0;
+        for (const std::string& name : *checkLenses) {
+            nlohmann::json j;
+            try {
+                const LensCheckReport report = checkLens(loadLens(name));
+                j = checkJson(name, &report, "");
+            } catch (const InputError& e) {
+                j = checkJson(name, nullptr, e.what());
+            }
+            failed += !j["ok"].get<bool>();
+            if (!*checkJsonFlag) {
+                std::printf("%s: %s\n", name.c_str(), j["ok"].get<bool>() ? "ok" : "FAILED");
+                for (const auto& f : j["failures"])
+                    std::printf("  %s%s: %s\n", f["check"].get<std::string>().c_str(),
+                                f["zoom"].get<std::string>().empty() ? "" : (" (" + f["zoom"].get<std::string>() + ")").c_str(),
+                                f["detail"].get<std::string>().c_str());
+            }
+            all.push_back(std::move(j));
+        }
+        if (*checkJsonFlag) std::cout << nlohmann::json{{"lenses", all}}.dump(2) << "\n";
+        // Failed checks are findings about the input: the input-error exit code.
+        if (failed) throw CLI::RuntimeError(kExitInputError);
     });
 
     auto drawOptions = std::make_shared<LensOptions>();

@@ -432,17 +432,26 @@ struct Context {
     }
 };
 
-// Draws config.lenses lenses, builds the valid ones and calls `body` for each.
+// Draws config.lenses lenses (or reads them from config.lensFiles), builds the valid ones and calls
+// `body` for each.
 void forEachLens(const char* tag, const StressConfig& config, StressReport& report,
                  const std::function<void(Context&, const LensSystem&, Rng&)>& body) {
     for (int i = 0; i < config.lenses; ++i) {
         Rng rng(config.seed, static_cast<std::uint64_t>(i));
-        const GeneratedLens generated = randomLens(rng);
+        GeneratedLens generated;
+        std::string fileName = "random.lens";
+        if (config.lensFiles.empty()) {
+            generated = randomLens(rng);
+        } else {
+            fileName = config.lensFiles[static_cast<size_t>(i) % config.lensFiles.size()];
+            std::ifstream in(fileName);
+            generated.text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+        }
         ++report.lensesTried;
         Context context{config, report, i, &generated, tag};
         std::optional<LensSystem> lens;
         try {
-            lens = LensSystem::build(parseLensText(generated.text, "random.lens"));
+            lens = LensSystem::build(parseLensText(generated.text, fileName));
         } catch (const InputError& e) {
             ++report.lensesRejected;
             ++report.rejections[canonical(e.problem())];

@@ -12,6 +12,7 @@
 
 #include "flare/core/Error.h"
 #include "flare/optics/EmbeddedLenses.h"
+#include "flare/optics/LensLibrary.h"
 #include "flare/optics/LensSystem.h"
 
 namespace flare {
@@ -569,6 +570,7 @@ LensPrescription loadLens(const std::string& pathOrName) {
         if (name.size() > 5 && name.compare(name.size() - 5, 5, ".lens") == 0) name.resize(name.size() - 5);
         for (const EmbeddedLens& lens : embeddedLenses())
             if (name == lens.name) return parseLensText(lens.text, "lenses/" + name + ".lens");
+        if (const LibraryLens* lens = LensLibrary::shared().find(name)) return loadLensFile(lens->path);
     }
     return loadLensFile(pathOrName);
 }

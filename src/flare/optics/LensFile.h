@@ -13,7 +13,8 @@ namespace flare {
 LensPrescription loadLensFile(const std::string& path);
 
 // A path, or the name of a shipped lens (e.g. "double-gauss-50mm", with or without ".lens") when no
-// file of that name exists: the embedded copy is parsed.
+// file of that name exists: the embedded copy is parsed; else the id of a library lens
+// (LensLibrary.h), whose file is read.
 LensPrescription loadLens(const std::string& pathOrName);
 
 // Parses text already in memory; `fileName` is used in error messages and as the source file.

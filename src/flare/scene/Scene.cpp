@@ -12,6 +12,7 @@
 #include "flare/core/Error.h"
 #include "flare/optics/EmbeddedLenses.h"
 #include "flare/optics/LensFile.h"
+#include "flare/optics/LensLibrary.h"
 #include "flare/scene/JsonTree.h"
 #include "flare/scene/SceneChecker.h"
 #include "flare/scene/SceneLights.h"
@@ -130,8 +131,8 @@ std::string shippedLensNames() {
     return names;
 }
 
-// A file relative to the scene's folder, or a shipped lens name (the same precedence as loadLens:
-// an existing file wins).
+// A file relative to the scene's folder, a shipped lens name or a library lens id (the same
+// precedence as loadLens: an existing file wins).
 std::string resolveLens(const Checker& c, const Node& node, const std::string& baseDir) {
     const std::string& value = c.string(node, "lens");
     if (value.empty()) c.fail(node.line, "lens", "must name a lens file or a shipped lens (" + shippedLensNames() + ")");
@@ -144,10 +145,12 @@ std::string resolveLens(const Checker& c, const Node& node, const std::string& b
         if (name.size() > 5 && name.compare(name.size() - 5, 5, ".lens") == 0) name.resize(name.size() - 5);
         for (const EmbeddedLens& lens : embeddedLenses())
             if (name == lens.name) return name;
+        if (const LibraryLens* lens = LensLibrary::shared().find(name)) return lens->path;
     }
     c.fail(node.line, "lens",
            "no lens file '" + file.string() + "'" + (file.string() != value ? " (relative to the scene's folder)" : "") +
-               " and no shipped lens named '" + value + "' (shipped: " + shippedLensNames() + ")");
+               " and no shipped lens named '" + value + "' (shipped: " + shippedLensNames() +
+               "; nor a library lens of that id: `flare lens list` shows them)");
 }
 
 std::string readFile(const std::string& path) {
