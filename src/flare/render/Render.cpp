@@ -57,6 +57,11 @@ constexpr double kGuideSensorMargin = 0.1;
 constexpr double kSpectralFloor = 0.1;
 constexpr int kBeamDimensions = 5;  // wavelength, direction (2), film-kernel jitter (2)
 constexpr int kBeamTableIntervals = 128;
+// The largest share of its layer's power a single beam is expected to carry (a floor under the
+// weak paths' beam rates).
+constexpr double kMaxBeamShare = 0.05;
+// The share of the beam budget that may go to giving every beam-rendered path a beam per pass.
+constexpr double kFloorBudgetShare = 0.1;
 
 struct Hit {
     float xMm, yMm;
@@ -245,6 +250,7 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
         state.beamWavelengths.resize(state.slots);
         state.beamRate.assign(state.slots, 0.0);
         std::vector<double> beamWeight(state.slots, 0.0);
+        std::vector<double> spectralPower(state.slots, 0.0);  // per slot: power fraction over the spectrum
         if (options.mode != RenderOptions::Mode::Naive && !plan.skipped) {
             // Guide masks: the analysed regions re-traced with a margin around the sensor (see
             // GuideMask::traced), in parallel over paths; each mask is a pure function of its path.
@@ -259,6 +265,57 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
                 if (state.masks[slot].empty()) return;
                 state.strategy[slot] = PathStrategy::Photons;
                 if (slot == 0 || !beamLight || estimate.lattice.empty()) return;
+                // Wavelengths where the path's coatings reflect: one ray through the middle of
+                // the live region, traced at every nanometre.
+                const LivePupilRegion& region = estimate.pupil;
+                glm::dvec2 centre(0.0);
+                int live = 0;
+                for (int j = 0; j < region.cellsB; ++j)
+                    for (int i = 0; i < region.cellsA; ++i)
+                        if (region.live[static_cast<size_t>(j) * region.cellsA + i]) {
+                            centre += glm::dvec2(region.aMinMm + (i + 0.5) * region.cellMm,
+                                                 region.bMinMm + (j + 0.5) * region.cellMm);
+                            ++live;
+                        }
+                centre /= std::max(live, 1);
+                // (The centroid of a ring-shaped region is not in it: take the nearest live cell.)
+                glm::dvec2 nearest = centre;
+                double nearestMm2 = 1e300;
+                for (int j = 0; j < region.cellsB; ++j)
+                    for (int i = 0; i < region.cellsA; ++i) {
+                        const glm::dvec2 c(region.aMinMm + (i + 0.5) * region.cellMm,
+                                           region.bMinMm + (j + 0.5) * region.cellMm);
+                        const glm::dvec2 d = c - centre;
+                        if (region.live[static_cast<size_t>(j) * region.cellsA + i] && glm::dot(d, d) < nearestMm2)
+                            nearest = c, nearestMm2 = glm::dot(d, d);
+                    }
+                centre = nearest;
+                SequentialPath sequence;
+                sequence.reflections = estimate.path.reflections;
+                std::vector<double> importance(kWavelengthBins, 0.0);
+                double mean = 0.0, luminance = 0.0, reflectedLuminance = 0.0;
+                const Spectrum spectrum = toSpectrum(spec.spectrum);
+                for (int i = 0; i < kWavelengthBins; ++i) {
+                    const double nm = kCieMinNm + i + 0.5;
+                    const TraceResult r =
+                        tracePath(lens, lens.indicesAt(nm), report.grid.ray(centre.x, centre.y), sequence);
+                    importance[i] = r.ok() ? r.throughput : 0.0;
+                    mean += importance[i] / kWavelengthBins;
+                    const double y = spectrum.value(nm) * cieXyzBar(nm).y;
+                    luminance += y;
+                    reflectedLuminance += y * importance[i];
+                }
+                // The analysis traced one wavelength; coatings tuned to it can reflect tens of
+                // times more elsewhere. This ratio (the ray's luminance-weighted throughput over
+                // the spectrum, over its throughput at the analysis's wavelength) turns the
+                // analysed power into the power the path carries in this light.
+                const TraceResult atAnalysis = tracePath(lens, indices, report.grid.ray(centre.x, centre.y), sequence);
+                spectralPower[slot] = estimate.powerFraction;
+                if (atAnalysis.ok() && atAnalysis.throughput > 0.0 && reflectedLuminance > 0.0)
+                    spectralPower[slot] *= (reflectedLuminance / luminance) / atAnalysis.throughput;
+                if (!(mean > 0.0)) std::fill(importance.begin(), importance.end(), 1.0), mean = 1.0;
+                for (double& v : importance) v += kSpectralFloor * mean;
+                state.beamWavelengths[slot] = std::make_unique<WavelengthSampler>(spectrum, importance);
                 // A beam at the analysis's wavelength and the light's central direction measures
                 // what the path's beams will cost and how uneven its image is (Σ power² / area:
                 // its squared L2 norm for a point source, which caustics dominate); beams then go
@@ -280,41 +337,33 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
                 // Cost in units of a traced ray: rasterising a pixel costs about a tenth of one.
                 const double cost = static_cast<double>(probe.tracedRays()) + 0.1 * imageAreaPx2 +
                                     options.correctionPhotonsPerBeam * 2.0;
-                beamWeight[slot] = std::sqrt(squaredNorm / cost);
-                // Wavelengths where the path's coatings reflect: one ray through the middle of
-                // the live region, traced at every nanometre.
-                const LivePupilRegion& region = estimate.pupil;
-                glm::dvec2 centre(0.0);
-                int live = 0;
-                for (int j = 0; j < region.cellsB; ++j)
-                    for (int i = 0; i < region.cellsA; ++i)
-                        if (region.live[static_cast<size_t>(j) * region.cellsA + i]) {
-                            centre += glm::dvec2(region.aMinMm + (i + 0.5) * region.cellMm,
-                                                 region.bMinMm + (j + 0.5) * region.cellMm);
-                            ++live;
-                        }
-                centre /= std::max(live, 1);
-                SequentialPath sequence;
-                sequence.reflections = estimate.path.reflections;
-                std::vector<double> importance(kWavelengthBins, 0.0);
-                double mean = 0.0;
-                for (int i = 0; i < kWavelengthBins; ++i) {
-                    const TraceResult r = tracePath(lens, lens.indicesAt(kCieMinNm + i + 0.5),
-                                                    report.grid.ray(centre.x, centre.y), sequence);
-                    importance[i] = r.ok() ? r.throughput : 0.0;
-                    mean += importance[i] / kWavelengthBins;
-                }
-                for (double& v : importance) v += kSpectralFloor * mean;
-                state.beamWavelengths[slot] =
-                    std::make_unique<WavelengthSampler>(toSpectrum(spec.spectrum), importance);
+                beamWeight[slot] = std::sqrt(squaredNorm / cost) * (spectralPower[slot] / estimate.powerFraction);
                 state.strategy[slot] = PathStrategy::Beams;
             });
         }
+        // Rates: the budget split by weight, with two floors. A weak path drawn with a tiny rate
+        // would appear in a few passes only, each time weighted by one over that rate:
+        // heavy-tailed, and a short render that drew none would see no spread and report its
+        // part as 0 ± 0. So every path gets one beam per pass, or, when there are too many paths
+        // for that, an equal share of kFloorBudgetShare of the budget; and no beam is expected to
+        // carry more than kMaxBeamShare of its layer's power (over the spectrum), a floor that
+        // sums to at most 1 / kMaxBeamShare beams per layer.
         double totalBeamWeight = 0.0;
-        for (double w : beamWeight) totalBeamWeight += w;
+        double layerPower[kFixedLayerCount] = {};
+        int beamPaths = 0;
+        for (int slot = 1; slot < state.slots; ++slot) {
+            totalBeamWeight += beamWeight[slot];
+            if (state.strategy[slot] != PathStrategy::Beams) continue;
+            layerPower[state.layer[slot]] += spectralPower[slot];
+            ++beamPaths;
+        }
+        const double everyPathFloor =
+            std::min(1.0, kFloorBudgetShare * options.beamsPerPass / std::max(beamPaths, 1));
         for (int slot = 1; slot < state.slots; ++slot)
             if (state.strategy[slot] == PathStrategy::Beams) {
-                state.beamRate[slot] = options.beamsPerPass * beamWeight[slot] / totalBeamWeight;
+                const double shareFloor = spectralPower[slot] / (kMaxBeamShare * layerPower[state.layer[slot]]);
+                state.beamRate[slot] = std::max({options.beamsPerPass * beamWeight[slot] / totalBeamWeight,
+                                                 shareFloor, everyPathFloor});
                 ++plan.beamGhosts;
             }
         for (size_t g = 0; g < report.ghosts.size(); ++g) {

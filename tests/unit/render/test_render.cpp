@@ -427,11 +427,16 @@ TEST(Render, CheckpointWithANonFiniteValueIsRefused) {
     const std::string good((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     in.close();
 
-    // The checkpoint: a 3-word header, the statistics, two doubles per tally, then the film (a
-    // magic word, six int32 and per tile a presence byte followed by its doubles).
+    // The checkpoint: a 3-word header, the statistics, four doubles per tally (the batches' and
+    // the passes' sums and sums of squares), then the film (a magic word, six int32: width,
+    // height, ...; and per tile a presence byte followed by its doubles).
     const size_t tallies = 3 * sizeof(std::uint64_t) + sizeof(RenderStatistics);
-    const size_t film = tallies + 2 * sizeof(double) *
+    const size_t film = tallies + 4 * sizeof(double) *
                                       (first.tallies().size() + first.layerTallies().size() + first.scatterSourceTallies().size());
+    std::int32_t size[2];
+    std::memcpy(size, good.data() + film + sizeof(std::uint64_t), sizeof size);
+    ASSERT_EQ(size[0], o.film.widthPx) << "the film is not where this test expects it";
+    ASSERT_EQ(size[1], o.film.heightPx);
     size_t tile = film + sizeof(std::uint64_t) + 6 * sizeof(std::int32_t);
     while (tile < good.size() && good[tile] == 0) ++tile;  // the first tile present
     ASSERT_LT(tile + sizeof(double), good.size());
