@@ -81,10 +81,10 @@ nlohmann::json reportJson(const Renderer& renderer, const Scene& scene, const Le
                           {"higher_order",
                            {{"share_estimate", l.higherOrderShareEstimate},
                             {"guided", l.higherOrderGuided},
+                            {"chains", l.higherOrderChains},
+                            {"analysed", l.higherOrderAnalysed},
                             {"paths", l.higherOrderPaths},
-                            {"why", l.higherOrderGuided ? "the lens's reflectances make order-4 chains matter"
-                                                        : "left to the unguided tracer: estimated below the threshold "
-                                                          "(or --higher-order off)"}}}});
+                            {"why", l.higherOrderWhy}}}});
         if (l.skipped) skipped.push_back({{"light", l.name}, {"reason", l.skipReason}});
     }
     j["lights"] = lights;

@@ -1,5 +1,6 @@
-// Time against error of the three ways the engine computes a flare: naive photon tracing (the
-// seed thesis's Fresnel roulette), the guided hybrid, and the deterministic preview; for several
+// Time against error of the ways the engine computes a flare: naive photon tracing (the seed
+// thesis's Fresnel roulette), the guided hybrid (beams for the ghosts, photons elsewhere), the
+// guided hybrid with photons only (the render before beams), and the deterministic preview; for several
 // lenses and light positions, in one run on one machine (run by scripts/bench.sh).
 //
 // Cases: the double Gauss, the zoom at its wide and tele positions and the fisheye, two sun
@@ -17,9 +18,10 @@
 //              executable (so any change of the engine's code invalidates it), the scene text and
 //              the reference settings.
 //   guided,    one progressive render each (seed 1); after geometrically spaced passes (×1.4)
-//   naive      the image is compared with the reference. Wall time = the renderer's construction
-//              (ghost analysis, guide masks) + the passes; the comparisons are not timed. Guided
-//              stops below the target/1.5 (or at --guided-seconds), naive at --naive-seconds.
+//   photons,   the image is compared with the reference. Wall time = the renderer's construction
+//   naive      (ghost analysis, guide masks) + the passes; the comparisons are not timed. Guided
+//              and photons stop below the target/1.5 (or at --guided-seconds), naive at
+//              --naive-seconds.
 //   preview    once with the scene's settings (7 wavelengths) and once finer (16 wavelengths,
 //              grid cells of 12 px instead of 24, up to 96 across): time = ghost analysis + preview
 //              (the per-ghost powers come from a second, untimed render with per-ghost layers).
@@ -441,7 +443,7 @@ int main(int argc, char** argv) {
                "naive_slope,speedup,naive_last_s,naive_last_ghost_err,preview_s,preview_flare_err,preview_dg_err,"
                "preview_ghost_err,preview_binned_dg_err,preview_binned_ghost_err,preview_ghost_power_err,"
                "preview_fine_s,preview_fine_binned_ghost_err,preview_fine_ghost_power_err,strip_guided_s,strip_naive_s,"
-               "strip_guided_ghost_err,strip_naive_ghost_err\n";
+               "strip_guided_ghost_err,strip_naive_ghost_err,photons_t,photons_t_kind,photons_slope,speedup_over_photons\n";
     std::fprintf(stderr, "# %zu case(s), %d px wide, target %.3g on the ghost layer, naive budget %.3g s\n", cases.size(),
                  width, target, naiveSeconds);
 
@@ -535,14 +537,19 @@ int main(int argc, char** argv) {
         if (!stripDir.empty()) writeStripPng(stripDir + "/" + c.name + "-reference.png", ref.mean.flare(), exposure);
 
         // Guided, then naive: progressive renders measured at geometrically spaced passes.
-        Crossing crossing[2];
+        // Methods: 0 guided (beams and photons, the default), 1 naive, 2 photons (guided photons
+        // only: the guided render before beams).
+        Crossing crossing[3];
         double stripT = 0, stripGuidedT = 0, stripNaiveT = 0, stripGuidedErr = 0, stripNaiveErr = 0;
         double naiveLastT = 0, naiveLastErr = 0;
-        for (int m = 0; m < 2; ++m) {
-            const bool guided = m == 0;
-            const std::string name = guided ? "guided" : "naive";
+        for (int m = 0; m < 3; ++m) {
+            const bool guided = m == 0, photonsOnly = m == 2;
+            const std::string name = guided ? "guided" : photonsOnly ? "photons" : "naive";
+            const RenderOptions::Mode mode = guided        ? RenderOptions::Mode::Guided
+                                             : photonsOnly ? RenderOptions::Mode::GuidedPhotons
+                                                           : RenderOptions::Mode::Naive;
             const auto t0 = Clock::now();
-            Renderer r(lens, scene.lights, optionsFor(scene, lens, guided ? RenderOptions::Mode::Guided : RenderOptions::Mode::Naive, 1));
+            Renderer r(lens, scene.lights, optionsFor(scene, lens, mode, 1));
             double timed = seconds(t0);
             std::vector<Point> points;
             std::vector<ImageLayer> snapshots;  // guided: the flare image at each point, for the strip
@@ -560,16 +567,16 @@ int main(int argc, char** argv) {
                 points.push_back(p);
                 row(p);
                 if (guided) snapshots.push_back(l.flare());
-                if (!guided && !stripDone && timed >= stripT) {
+                if (m == 1 && !stripDone && timed >= stripT) {
                     stripDone = true;
                     stripNaiveT = timed, stripNaiveErr = p.ghost;
                     if (!stripDir.empty()) writeStripPng(stripDir + "/" + c.name + "-naive.png", l.flare(), exposure);
                 }
-                const double budget = guided ? guidedBudget : naiveSeconds;
-                const double stopBelow = guided ? target / 1.5 : 0.0;
+                const double budget = m == 1 ? naiveSeconds : guidedBudget;
+                const double stopBelow = m == 1 ? 0.0 : target / 1.5;
                 if (p.ghost <= stopBelow || timed > budget) {
                     // Naive ran out of time before the strip's time: show its last image.
-                    if (!guided && !stripDone) {
+                    if (m == 1 && !stripDone) {
                         stripNaiveT = timed, stripNaiveErr = p.ghost;
                         if (!stripDir.empty()) writeStripPng(stripDir + "/" + c.name + "-naive.png", l.flare(), exposure);
                     }
@@ -587,7 +594,7 @@ int main(int argc, char** argv) {
                 while (i + 1 < points.size() && points[i].seconds < crossing[0].seconds) ++i;
                 stripT = stripGuidedT = points[i].seconds, stripGuidedErr = points[i].ghost;
                 if (!stripDir.empty()) writeStripPng(stripDir + "/" + c.name + "-guided.png", snapshots[i], exposure);
-            } else {
+            } else if (m == 1) {
                 naiveLastT = points.back().seconds, naiveLastErr = points.back().ghost;
             }
         }
@@ -595,18 +602,20 @@ int main(int argc, char** argv) {
         char buf[2048];
         std::snprintf(buf, sizeof buf,
                       "%s,%s,%s,%g,%g,%d,%d,%d,%lld,%.2f,%.5f,%.5f,%.5f,%g,%.4g,%s,%.3f,%.4g,%s,%.3f,%.4g,%.3f,%.5f,%.4f,%.5f,"
-                      "%.5f,%.5f,%.5f,%.5f,%.5f,%.4f,%.5f,%.5f,%.3f,%.3f,%.5f,%.5f\n",
+                      "%.5f,%.5f,%.5f,%.5f,%.5f,%.4f,%.5f,%.5f,%.3f,%.3f,%.5f,%.5f,%.4g,%s,%.3f,%.3f\n",
                       c.name.c_str(), c.lens.c_str(), c.zoom.c_str(), c.fieldX, c.fieldY, w, h, kept,
                       static_cast<long long>(ref.photons), ref.seconds, ref.errFlare, ref.errGhost, ref.errGhostPower, target,
                       crossing[0].seconds, crossing[0].kind.c_str(), crossing[0].slope, crossing[1].seconds,
                       crossing[1].kind.c_str(), crossing[1].slope, crossing[1].seconds / crossing[0].seconds, naiveLastT,
                       naiveLastErr, previewPoint.seconds, previewPoint.flare, previewPoint.dg, previewPoint.ghost, previewPoint.dgBinned,
                       previewPoint.ghostBinned, previewPoint.ghostPower, previewFineSeconds, previewFineBinnedGhost, previewFinePower,
-                      stripGuidedT, stripNaiveT, stripGuidedErr, stripNaiveErr);
+                      stripGuidedT, stripNaiveT, stripGuidedErr, stripNaiveErr, crossing[2].seconds,
+                      crossing[2].kind.c_str(), crossing[2].slope, crossing[2].seconds / crossing[0].seconds);
         summary << buf;
         summary.flush();
-        std::fprintf(stderr, "#   => speed-up of guided over naive at %.3g: %.0fx (naive %s); case took %.0f s\n", target,
-                     crossing[1].seconds / crossing[0].seconds, crossing[1].kind.c_str(), seconds(caseStart));
+        std::fprintf(stderr, "#   => speed-up of guided over naive at %.3g: %.0fx (naive %s), over guided photons %.1fx (%s); "
+                     "case took %.0f s\n", target, crossing[1].seconds / crossing[0].seconds, crossing[1].kind.c_str(),
+                     crossing[2].seconds / crossing[0].seconds, crossing[2].kind.c_str(), seconds(caseStart));
     }
     return 0;
 }

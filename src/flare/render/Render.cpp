@@ -169,15 +169,52 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
         // else they stay with the unguided tracer (coated glass: about R² of the ghosts').
         plan.higherOrderShareEstimate = higherOrderShareEstimate(
             lens, lens.indicesAt(options.analysis.wavelengthNm), options.analysis.includeSensor);
-        plan.higherOrderGuided =
-            options.mode != RenderOptions::Mode::Naive && options.analysis.order == 2 &&
-            (options.higherOrder == RenderOptions::HigherOrder::On ||
-             (options.higherOrder == RenderOptions::HigherOrder::Auto &&
-              plan.higherOrderShareEstimate >= options.higherOrderThreshold));
+        std::vector<GhostPath> chains;
+        if (options.mode != RenderOptions::Mode::Naive && options.analysis.order == 2 &&
+            options.higherOrder != RenderOptions::HigherOrder::Off) {
+            chains = enumerateGhosts(lens, 4, options.analysis.includeSensor);
+            plan.higherOrderChains = static_cast<long>(chains.size());
+        }
+        const bool tooMany = chains.size() > static_cast<size_t>(std::max(options.maxAnalysedChains, 0));
+        if (options.mode == RenderOptions::Mode::Naive) {
+            plan.higherOrderWhy = "naive mode guides nothing";
+        } else if (options.analysis.order != 2) {
+            plan.higherOrderWhy = "enumerated with the ghosts (ghost_order 4)";
+        } else if (options.higherOrder == RenderOptions::HigherOrder::Off) {
+            plan.higherOrderWhy = "left to the unguided tracer: --higher-order off";
+        } else if (options.higherOrder == RenderOptions::HigherOrder::On) {
+            plan.higherOrderGuided = true;
+            plan.higherOrderWhy = tooMany ? "--higher-order on: the strongest chains by reflectance analysed"
+                                          : "--higher-order on";
+        } else if (plan.higherOrderShareEstimate < options.higherOrderThreshold) {
+            plan.higherOrderWhy = "left to the unguided tracer: their estimated share is below the threshold";
+        } else if (tooMany) {
+            plan.higherOrderWhy = "left to the unguided tracer: too many chains to analyse them all "
+                                  "(--higher-order on analyses the strongest by reflectance)";
+        } else {
+            plan.higherOrderGuided = true;
+            plan.higherOrderWhy = "the lens's reflectances make order-4 chains matter";
+        }
         if (plan.higherOrderGuided) {
             // Their power spreads over hundreds of paths, and vignetting, not the reflectances,
-            // decides which are strong: every chain is analysed.
-            const std::vector<GhostPath> chains = enumerateGhosts(lens, 4, options.analysis.includeSensor);
+            // decides which are strong: every chain is analysed, up to maxAnalysedChains; past
+            // that (with --higher-order on; a zoom has 10⁵ chains: minutes of analysis) the
+            // strongest by reflectance.
+            if (tooMany) {
+                const SpectralIndices at = lens.indicesAt(options.analysis.wavelengthNm);
+                std::vector<std::pair<double, size_t>> ranked;
+                for (size_t c = 0; c < chains.size(); ++c)
+                    ranked.push_back({-normalIncidenceReflectance(lens, at, chains[c]), c});
+                // Strongest first; ties by enumeration order, so the choice is deterministic.
+                std::partial_sort(ranked.begin(), ranked.begin() + options.maxAnalysedChains, ranked.end());
+                std::vector<size_t> keep;
+                for (int i = 0; i < options.maxAnalysedChains; ++i) keep.push_back(ranked[i].second);
+                std::sort(keep.begin(), keep.end());
+                std::vector<GhostPath> strongest;
+                for (size_t c : keep) strongest.push_back(std::move(chains[c]));
+                chains = std::move(strongest);
+            }
+            plan.higherOrderAnalysed = static_cast<int>(chains.size());
             const size_t before = state.report.ghosts.size();
             GhostAnalysisOptions chainOptions = options.analysis;
             chainOptions.order = 4;
@@ -873,7 +910,7 @@ std::uint64_t Renderer::fingerprint() const {
                         options_.batchesPerPass, film_.layerCount(), options_.film.widthPx, options_.film.heightPx,
                         static_cast<int>(options_.film.kernel), lens_->surfaceCount(), options_.beamsPerPass,
                         options_.correctionPhotonsPerBeam, options_.beamMeshLevel,
-                        static_cast<int>(std::lround(options_.testBeamShiftPx * 1024.0))};
+                        static_cast<int>(std::lround(options_.testBeamShiftPx * 1024.0)), options_.maxAnalysedChains};
     mix(ints, sizeof ints);
     for (const Component& c : components_) {
         mix(&c.light, sizeof c.light);

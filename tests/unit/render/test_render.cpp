@@ -19,6 +19,7 @@
 
 #include "flare/core/Error.h"
 #include "flare/core/Spectrum.h"
+#include "flare/ghosts/Ghosts.h"
 #include "flare/ghosts/Preview.h"
 #include "flare/render/Render.h"
 #include "RenderTestUtil.h"
@@ -340,6 +341,44 @@ TEST(Render, EstimatedErrorIsHonest) {
     double all = 0.0;
     for (size_t i = 0; i < values; ++i) all += (allSquares[i] - allSum[i] * allSum[i] / done) / (done - 1) / done;
     EXPECT_NEAR(r.film().errorEstimate(kGroupGhost).sumVariance, all, 1e-3 * all);
+}
+
+// Order-4 chains are analysed only up to maxAnalysedChains: with more, Auto leaves them to the
+// unguided tracer and says why; On analyses that many, the strongest by reflectance.
+TEST(Render, OrderFourAnalysisIsBoundedByTheChainCap) {
+    const Scene scene = doubletScene();
+    const LensSystem lens = buildSceneLens(scene);
+    const std::vector<GhostPath> chains = enumerateGhosts(lens, 4, true);
+    const int cap = 3;
+    ASSERT_GT(static_cast<int>(chains.size()), cap);
+    RenderOptions o = optionsFor(scene, lens, RenderOptions::Mode::Guided);
+    o.maxAnalysedChains = cap;
+    {
+        Renderer automatic(lens, scene.lights, o);
+        const LightPlan& plan = automatic.lights().front();
+        ASSERT_GE(plan.higherOrderShareEstimate, o.higherOrderThreshold);  // uncoated: would be guided
+        EXPECT_FALSE(plan.higherOrderGuided);
+        EXPECT_EQ(plan.higherOrderChains, static_cast<long>(chains.size()));
+        EXPECT_EQ(plan.higherOrderAnalysed, 0);
+        EXPECT_NE(plan.higherOrderWhy.find("too many chains"), std::string::npos) << plan.higherOrderWhy;
+    }
+    o.higherOrder = RenderOptions::HigherOrder::On;
+    Renderer on(lens, scene.lights, o);
+    const LightPlan& plan = on.lights().front();
+    EXPECT_TRUE(plan.higherOrderGuided);
+    EXPECT_EQ(plan.higherOrderAnalysed, cap);
+    std::vector<double> reflectances;
+    const SpectralIndices at = lens.indicesAt(o.analysis.wavelengthNm);
+    for (const GhostPath& c : chains) reflectances.push_back(normalIncidenceReflectance(lens, at, c));
+    std::sort(reflectances.rbegin(), reflectances.rend());
+    int guidedChains = 0;
+    for (const PathTally& t : on.tallies()) {
+        if (t.path.reflections.size() != 4 || !t.guided) continue;
+        EXPECT_GE(normalIncidenceReflectance(lens, at, t.path), reflectances[cap - 1]) << t.path.label();
+        ++guidedChains;
+    }
+    EXPECT_GE(guidedChains, 1);
+    EXPECT_LE(guidedChains, cap);
 }
 
 void expectSameRender(const Renderer& a, const Renderer& b) {
