@@ -1,7 +1,7 @@
 // Emission of photons from one light towards the lens. A photon is named by the point (a, b) where
 // its ray crosses the light's pupil plane: the PupilGrid plane, normal to the light's central
 // direction through the first vertex, shared with the ghost analysis. Naive emission draws (a, b)
-// uniformly over a square that covers every ray able to enter the front aperture; guided emission
+// uniformly over a disk that covers every ray able to enter the front aperture; guided emission
 // draws it over a ghost's live cells. The light's own extent (the sun's disk, a point's position,
 // a disk's area) then gives the ray through that point and the power it carries per unit area of
 // the plane, so that power density × area / probability is an unbiased photon power.
@@ -22,8 +22,9 @@ public:
     LightSampler(const LightSpec& light, const LensSystem& lens);
 
     const PupilGrid& grid() const { return grid_; }
-    // Naive emission covers [−h, h]² of the pupil plane (h ≥ grid().halfSizeMm, widened for the
-    // light's angular extent) so that no ray that can enter the lens is left out.
+    // Unguided emission covers the disk of radius h about the pupil plane's centre (h ≥
+    // grid().halfSizeMm, widened for the light's angular extent) so that no ray that can enter
+    // the lens is left out (tested for the shipped lenses and light kinds).
     double emissionHalfSizeMm() const { return emissionHalfSizeMm_; }
     // The ray through (aMm, bMm) on the pupil plane, with the light's angular extent sampled by
     // u1, u2 in [0, 1): uniform over the sun's cone, or a uniform point of a disk light.

@@ -279,7 +279,7 @@ glm::dvec3 frontPoint(const Surface& first, double rho, double phi) {
     return {rho * std::cos(phi), rho * std::sin(phi), first.vertexZMm + sag};
 }
 
-TEST(LightSampler, EmissionSquareCoversEveryRayThroughTheFrontAperture) {
+TEST(LightSampler, EmissionDiskCoversEveryRayThroughTheFrontAperture) {
     std::vector<LightSpec> lights = {sun(20.0, 0.0, 0.53), sun(14.0, 14.0, 0.53), sun(20.0, 0.0, 10.0), sun(0.0, 0.0, 0.53),
                                      sun(0.0, -20.0, 0.53)};
     lights.push_back(pointLight(180.0 * glm::dvec3(std::sin(30 * kDegToRad), 0.0, -std::cos(30 * kDegToRad)), 1.0));
@@ -316,7 +316,7 @@ TEST(LightSampler, EmissionSquareCoversEveryRayThroughTheFrontAperture) {
                         direction = glm::normalize(p - source);
                     }
                     const glm::dvec2 ab = crossing(grid, p, direction);
-                    const double extent = std::max(std::abs(ab.x), std::abs(ab.y));
+                    const double extent = std::hypot(ab.x, ab.y);
                     worst = std::max(worst, extent / half);
                     outside += extent > half;
                     // The grid's own square covers the rays along the central direction.
@@ -329,7 +329,7 @@ TEST(LightSampler, EmissionSquareCoversEveryRayThroughTheFrontAperture) {
                                           glm::dot(p - e.ray.originMm, e.ray.direction) > 0.0;
                     behind += !reachesP;
                 }
-            EXPECT_EQ(outside, 0) << what << ": rays into the aperture cross the plane outside the emission square (worst at "
+            EXPECT_EQ(outside, 0) << what << ": rays into the aperture cross the plane outside the emission disk (worst at "
                                   << worst << " × the half size " << half << " mm)";
             EXPECT_EQ(outsideGrid, 0) << what << ": central-direction rays outside the grid square";
             EXPECT_EQ(behind, 0) << what << ": emitted rays that do not reach the front surface where they should";
