@@ -17,7 +17,7 @@ namespace {
 constexpr int kTilePx = 32;
 constexpr int kCountBlockPx = 8;
 constexpr double kMm2PerM2 = 1e6;
-constexpr std::uint64_t kFilmMagic = 0x32464c4946524c46ull;  // "FLRFILF2"
+constexpr std::uint64_t kFilmMagic = 0x33464c4946524c46ull;  // "FLRFILF3"
 
 template <class T>
 void writeRaw(std::ostream& out, const T& value) {
@@ -92,14 +92,26 @@ Film::Film(const FilmSettings& settings, int layerCount) : settings_(settings) {
         !(settings.progressiveAlpha > 0.0 && settings.progressiveAlpha < 1.0))
         throw std::invalid_argument("Film: invalid kernel settings");
     for (int l = 0; l < layerCount; ++l) layers_.push_back(std::make_unique<Tiles>(settings.widthPx, settings.heightPx));
+    layerKernels_.assign(layerCount, {settings.kernel, settings.neighbours, settings.maxRadiusPx});
     layerGroups_.assign(layerCount, {});
     groups_.emplace_back(settings.widthPx, settings.heightPx);
-    if (settings.kernel == FilmSettings::Kernel::Adaptive) {
-        countW_ = (settings.widthPx + kCountBlockPx - 1) / kCountBlockPx;
-        countH_ = (settings.heightPx + kCountBlockPx - 1) / kCountBlockPx;
-        counts_.assign(layerCount, std::vector<std::uint32_t>(static_cast<size_t>(countW_) * countH_, 0));
-        pendingCounts_ = counts_;
-    }
+    if (settings.kernel == FilmSettings::Kernel::Adaptive) allocateCounts();
+}
+
+void Film::allocateCounts() {
+    if (!counts_.empty()) return;
+    countW_ = (settings_.widthPx + kCountBlockPx - 1) / kCountBlockPx;
+    countH_ = (settings_.heightPx + kCountBlockPx - 1) / kCountBlockPx;
+    counts_.assign(layers_.size(), std::vector<std::uint32_t>(static_cast<size_t>(countW_) * countH_, 0));
+    pendingCounts_ = counts_;
+}
+
+void Film::setLayerKernel(int layer, FilmSettings::Kernel kernel, int neighbours, double maxRadiusPx) {
+    if (passes_ > 0) throw std::logic_error("Film::setLayerKernel after the first pass");
+    if (layer < 0 || layer >= layerCount()) throw std::invalid_argument("Film::setLayerKernel: no layer " + std::to_string(layer));
+    if (neighbours < 1 || !(maxRadiusPx >= 1.0)) throw std::invalid_argument("Film::setLayerKernel: invalid kernel settings");
+    layerKernels_[layer] = {kernel, neighbours, maxRadiusPx};
+    if (kernel == FilmSettings::Kernel::Adaptive) allocateCounts();
 }
 
 Film::~Film() = default;
@@ -124,7 +136,8 @@ glm::dvec2 Film::toPixel(const glm::dvec2& sensorMm) const {
 }
 
 double Film::radiusPx(int layer, const glm::dvec2& sensorMm) const {
-    switch (settings_.kernel) {
+    const LayerKernel& k = layerKernels_[layer];
+    switch (k.kernel) {
         case FilmSettings::Kernel::Fixed: return settings_.radiusPx;
         case FilmSettings::Kernel::Progressive:
             return settings_.radiusPx * std::pow(static_cast<double>(passes_ + 1), -0.5 * (1.0 - settings_.progressiveAlpha));
@@ -133,13 +146,13 @@ double Film::radiusPx(int layer, const glm::dvec2& sensorMm) const {
             const int bx = std::clamp(static_cast<int>(pixel.x) / kCountBlockPx, 0, countW_ - 1);
             const int by = std::clamp(static_cast<int>(pixel.y) / kCountBlockPx, 0, countH_ - 1);
             const double count = counts_[layer][static_cast<size_t>(by) * countW_ + bx];
-            if (count == 0.0) return settings_.maxRadiusPx;
+            if (count == 0.0) return k.maxRadiusPx;
             // k photons expected within π r² at the block's density (photons per px² of the part
             // of the block that lies on the image: blocks at the right and bottom may be cut).
             const int blockW = std::min(kCountBlockPx, settings_.widthPx - bx * kCountBlockPx);
             const int blockH = std::min(kCountBlockPx, settings_.heightPx - by * kCountBlockPx);
             const double density = count / (blockW * blockH);
-            return std::clamp(std::sqrt(settings_.neighbours / (std::numbers::pi * density)), 1.0, settings_.maxRadiusPx);
+            return std::clamp(std::sqrt(k.neighbours / (std::numbers::pi * density)), 1.0, k.maxRadiusPx);
         }
     }
     return settings_.radiusPx;
@@ -204,13 +217,13 @@ void Film::splatRows(int layer, const glm::dvec2& sensorMm, const glm::dvec3& xy
                      int rowEnd, bool count) {
     const glm::dvec2 pixel = toPixel(sensorMm);
     // Far off the image (by more than any kernel): nothing to add.
-    const double reach = std::max(settings_.radiusPx, settings_.maxRadiusPx) + 1.0;
+    const double reach = std::max(settings_.radiusPx, layerKernels_[layer].maxRadiusPx) + 1.0;
     if (!(pixel.x > -reach && pixel.y > -reach && pixel.x < settings_.widthPx + reach &&
           pixel.y < settings_.heightPx + reach))
         return;
     const double radius = radiusPx(layer, sensorMm);
     addKernel(layer, inTotal, pixel, radius, xyzPowerW, rowBegin, rowEnd);
-    if (count && settings_.kernel == FilmSettings::Kernel::Adaptive) {
+    if (count && layerKernels_[layer].kernel == FilmSettings::Kernel::Adaptive) {
         const int bx = static_cast<int>(pixel.x) / kCountBlockPx, by = static_cast<int>(pixel.y) / kCountBlockPx;
         if (pixel.x >= 0 && pixel.y >= 0 && bx < countW_ && by < countH_)
             ++pendingCounts_[layer][static_cast<size_t>(by) * countW_ + bx];
@@ -327,6 +340,11 @@ void Film::save(std::ostream& out) const {
     writeRaw<std::int32_t>(out, layerCount());
     writeRaw<std::int32_t>(out, varianceGroupCount());
     writeRaw<std::int32_t>(out, passes_);
+    for (const LayerKernel& k : layerKernels_) {
+        writeRaw<std::int32_t>(out, static_cast<std::int32_t>(k.kernel));
+        writeRaw<std::int32_t>(out, k.neighbours);
+        writeRaw<double>(out, k.maxRadiusPx);
+    }
     for (const auto& layer : layers_) layer->save(out);
     for (const Group& group : groups_) {
         group.sumPasses->save(out);
@@ -345,6 +363,12 @@ void Film::load(std::istream& in) {
         throw std::runtime_error("checkpoint: the film's size, kernel, layers or variance groups differ from this render's");
     const int passes = readRaw<std::int32_t>(in);
     if (passes < 0) throw std::runtime_error("checkpoint: negative pass count");
+    for (const LayerKernel& k : layerKernels_) {
+        const int kernel = readRaw<std::int32_t>(in), neighbours = readRaw<std::int32_t>(in);
+        const double maxRadiusPx = readRaw<double>(in);
+        if (kernel != static_cast<int>(k.kernel) || neighbours != k.neighbours || maxRadiusPx != k.maxRadiusPx)
+            throw std::runtime_error("checkpoint: a layer's kernel differs from this render's");
+    }
     // Read everything into fresh buffers first: a bad file leaves this film untouched.
     std::vector<std::unique_ptr<Tiles>> loaded;
     for (int l = 0; l < layers + 2 * groups; ++l) {

@@ -62,6 +62,12 @@ public:
     int passes() const { return passes_; }
     int bandCount() const { return (settings_.heightPx + kBandRows - 1) / kBandRows; }
 
+    // A layer's own kernel, replacing the settings' for that layer (e.g. an adaptive kernel for a
+    // smooth, sparse layer beside sharp fixed-kernel ones): kernel, neighbours and maxRadiusPx as
+    // in FilmSettings. Must be called before the first pass.
+    void setLayerKernel(int layer, FilmSettings::Kernel kernel, int neighbours, double maxRadiusPx);
+    FilmSettings::Kernel layerKernel(int layer) const { return layerKernels_[layer].kernel; }
+
     // A further variance group: the sum of `layers` (whatever the splats' inTotal). Returns its
     // index (1, 2, ...; group 0 is the total). Must be called before the first pass.
     int addVarianceGroup(const std::vector<int>& layers);
@@ -117,7 +123,15 @@ private:
     void splatRows(int layer, const glm::dvec2& sensorMm, const glm::dvec3& xyzPowerW, bool inTotal, int rowBegin,
                    int rowEnd, bool count);
 
+    struct LayerKernel {
+        FilmSettings::Kernel kernel = FilmSettings::Kernel::Fixed;
+        int neighbours = 0;
+        double maxRadiusPx = 0.0;
+    };
+    void allocateCounts();
+
     FilmSettings settings_;
+    std::vector<LayerKernel> layerKernels_;
     double pixelMm_ = 0.0;
     int passes_ = 0;
     std::vector<std::unique_ptr<Tiles>> layers_;

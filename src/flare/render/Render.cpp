@@ -147,6 +147,9 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
       tracer_(lens, options.materials, options.maxBounces, options.contamination, options.media),
       film_(options.film, kFixedLayerCount) {
     for (int l = 0; l < kFixedLayerCount; ++l) layerNames_.push_back(renderLayerName(l));
+    if (options.scatterNeighbours > 0 && options.film.kernel == FilmSettings::Kernel::Fixed)
+        film_.setLayerKernel(kLayerScatter, FilmSettings::Kernel::Adaptive, options.scatterNeighbours,
+                             std::max(options.film.maxRadiusPx, options.film.widthPx / 16.0));
     std::unordered_map<std::string, int> ghostLayerOfLabel;
     const InteriorMaterials& m = options.materials;
     const bool anyScattering = m.housingAlbedo + m.edgeAlbedo + m.irisAlbedo + m.housingGlossy + m.edgeGlossy +
@@ -912,7 +915,8 @@ std::uint64_t Renderer::fingerprint() const {
                         options_.batchesPerPass, film_.layerCount(), options_.film.widthPx, options_.film.heightPx,
                         static_cast<int>(options_.film.kernel), lens_->surfaceCount(), options_.beamsPerPass,
                         options_.correctionPhotonsPerBeam, options_.beamMeshLevel,
-                        static_cast<int>(std::lround(options_.testBeamShiftPx * 1024.0)), options_.maxAnalysedChains};
+                        static_cast<int>(std::lround(options_.testBeamShiftPx * 1024.0)), options_.maxAnalysedChains,
+                        options_.scatterNeighbours};
     mix(ints, sizeof ints);
     for (const Component& c : components_) {
         mix(&c.light, sizeof c.light);

@@ -62,6 +62,11 @@ struct RenderOptions {
     // to photon-guided ghosts in proportion to their estimated power (when there are none, the
     // unguided tracer and the direct image share everything in these proportions).
     double unguidedShare = 0.1;
+    // The `scatter` layer, veiling glare that varies slowly across the frame, is estimated as
+    // smooth: with the film's fixed kernel, its photons get an adaptive kernel (Film::
+    // setLayerKernel) that holds about this many earlier photons, at most a sixteenth of the
+    // frame's width in radius (0: the film's kernel, like the other layers).
+    int scatterNeighbours = 256;
     double directShare = 0.1;
     int batchPhotons = 1024;
     int batchesPerPass = 64;

@@ -528,11 +528,59 @@ TEST(Film, LoadRejectsACheckpointOfAnotherFilm) {
     EXPECT_THROW(loadInto(s, 2, bytes.substr(0, bytes.size() - 1)), std::runtime_error);            // one byte short
     EXPECT_THROW(loadInto(s, 2, std::string("not a film checkpoint at all")), std::runtime_error);
     EXPECT_THROW(loadInto(s, 2, std::string()), std::runtime_error);
+    // A layer given its own kernel is part of the film: another layer kernel is refused.
+    Film fixed(filmSettings(40, 32), 2);
+    fixed.setLayerKernel(1, Kernel::Adaptive, 64, 6.0);
+    randomPass(fixed, rng, 100);
+    const std::string withLayerKernel = saved(fixed);
+    auto loadWithKernel = [&](int neighbours) {
+        Film film(filmSettings(40, 32), 2);
+        film.setLayerKernel(1, Kernel::Adaptive, neighbours, 6.0);
+        std::istringstream in(withLayerKernel);
+        film.load(in);
+    };
+    EXPECT_NO_THROW(loadWithKernel(64));
+    EXPECT_THROW(loadWithKernel(65), std::runtime_error);
+    EXPECT_THROW(loadInto(filmSettings(40, 32), 2, withLayerKernel), std::runtime_error);
+}
+
+// A layer's own kernel: an adaptive layer beside a fixed one spreads its photons by its own
+// radius (the widest before any count), conserves their power, and the fixed layer is untouched.
+TEST(Film, ALayerCanHaveItsOwnAdaptiveKernel) {
+    const FilmSettings s = filmSettings(128, 128);
+    Film film(s, 2);
+    film.setLayerKernel(1, Kernel::Adaptive, 100, 10.0);
+    EXPECT_EQ(film.layerKernel(0), Kernel::Fixed);
+    EXPECT_EQ(film.layerKernel(1), Kernel::Adaptive);
+    EXPECT_EQ(film.radiusPx(0, sensorAt(s, 64.0, 64.0)), 1.0);
+    EXPECT_EQ(film.radiusPx(1, sensorAt(s, 64.0, 64.0)), 10.0);
+    film.splat(0, sensorAt(s, 64.0, 64.0), {1.0, 1.0, 1.0});
+    film.splat(1, sensorAt(s, 64.0, 64.0), {1.0, 1.0, 1.0});
+    film.endPass(1);
+    for (int layer = 0; layer < 2; ++layer) {
+        const std::vector<float> img = film.irradianceXyz(layer, 1.0);
+        double power = 0.0;
+        int lit = 0;
+        for (size_t i = 1; i < img.size(); i += 3) power += img[i], lit += img[i] > 0.0f;
+        power *= film.pixelMm() * film.pixelMm() * 1e-6;  // W/m² × pixel area
+        EXPECT_NEAR(power, 1.0, 1e-6) << layer;
+        // The fixed tent of radius 1 covers the 4 nearest centres; radius 10 about π·10² of them.
+        if (layer == 0) EXPECT_LE(lit, 4);
+        if (layer == 1) EXPECT_GT(lit, 250);
+    }
+    // After a pass, the adaptive layer's radius follows its own count: 400 photons in one 8 × 8
+    // block give 6.25 per px² and r = sqrt(100 / (6.25 π)); the fixed layer keeps its radius.
+    for (int i = 0; i < 400; ++i) film.splat(1, sensorAt(s, 60.0 + 0.001 * i, 60.0), glm::dvec3(0.0), false);
+    film.endPass(1);
+    EXPECT_NEAR(film.radiusPx(1, sensorAt(s, 60.0, 60.0)), std::sqrt(100.0 / (6.25 * std::numbers::pi)), 1e-12);
+    EXPECT_EQ(film.radiusPx(0, sensorAt(s, 60.0, 60.0)), 1.0);
+    EXPECT_THROW(film.setLayerKernel(1, Kernel::Adaptive, 100, 10.0), std::logic_error);  // after a pass
 }
 
 // A checkpoint whose sum tile is present but whose sum-of-squares tile is absent must be refused
 // (it used to load, and varianceRgb() then dereferenced a missing tile). The byte layout below is
-// Film::save's (magic, six int32, then per tile a flag byte and 32 × 32 × 3 doubles).
+// Film::save's (magic, six int32, per layer its kernel (two int32 and a double), then per tile a
+// flag byte and 32 × 32 × 3 doubles).
 TEST(Film, LoadRejectsAnInconsistentCheckpoint) {
     const FilmSettings s = filmSettings(32, 32);  // a single tile, Fixed kernel (no counts)
     Film original(s, 1);
@@ -542,7 +590,7 @@ TEST(Film, LoadRejectsAnInconsistentCheckpoint) {
     }
     std::string bytes = saved(original);
     const size_t tileBytes = 32 * 32 * 3 * sizeof(double);
-    ASSERT_EQ(bytes.size(), 8 + 6 * 4 + 3 * (1 + tileBytes));
+    ASSERT_EQ(bytes.size(), 8 + 6 * 4 + (4 + 4 + 8) + 3 * (1 + tileBytes));
     bytes.resize(bytes.size() - tileBytes);  // drop the sum-of-squares tile ...
     bytes.back() = 0;                        // ... and mark it absent
     Film restored(s, 1);

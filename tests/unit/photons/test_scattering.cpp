@@ -222,6 +222,39 @@ TEST(Scattering, ScatterLayerGrowsWithTheScatteringCoefficient) {
     EXPECT_NEAR(ratio, 2.0, 0.05 * 2.0 + test::normalTwoSidedCritical(1e-3) * ratioError);
 }
 
+// The scatter layer estimated as smooth (RenderOptions::scatterNeighbours): the same photons
+// splatted by an adaptive kernel instead of the 1-px tent. Against a long fixed-kernel reference
+// the smoothed image is closer than the fixed one of the same photons (its bias is below the
+// noise it removes), its estimated error is smaller, and the layer's power is the same.
+TEST(Scattering, SmoothScatterLayerIsCloserToTheReferenceThanTheSharpOne) {
+    const Scene scene = doubletScene(R"({ "bulk": [ { "element": 1, "scattering_per_mm": 0.01, "g": 0.3 } ] })");
+    const LensSystem lens = buildSceneLens(scene);
+    RenderOptions sharpOptions = test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Guided, 7);
+    sharpOptions.scatterNeighbours = 0;
+    RenderOptions smoothOptions = sharpOptions;
+    smoothOptions.scatterNeighbours = 256;
+    RenderOptions referenceOptions = sharpOptions;
+    referenceOptions.seed = 8;
+    Renderer sharp(lens, scene.lights, sharpOptions), smooth(lens, scene.lights, smoothOptions);
+    Renderer reference(lens, scene.lights, referenceOptions);
+    for (int p = 0; p < 3; ++p) sharp.runPass(), smooth.runPass();
+    for (int p = 0; p < 24; ++p) reference.runPass();
+    const std::vector<float> r = reference.layerXyz(kLayerScatter), a = sharp.layerXyz(kLayerScatter),
+                             b = smooth.layerXyz(kLayerScatter);
+    double sharpDistance = 0.0, smoothDistance = 0.0, norm = 0.0;
+    for (size_t i = 1; i < r.size(); i += 3) {
+        sharpDistance += std::pow(a[i] - r[i], 2);
+        smoothDistance += std::pow(b[i] - r[i], 2);
+        norm += r[i] * r[i];
+    }
+    ASSERT_GT(norm, 0.0);
+    EXPECT_LT(smoothDistance, 0.5 * sharpDistance) << "relative L2: smooth " << std::sqrt(smoothDistance / norm)
+                                                    << ", sharp " << std::sqrt(sharpDistance / norm);
+    EXPECT_LT(smooth.estimatedRelativeError(kGroupScatter), sharp.estimatedRelativeError(kGroupScatter));
+    // Same seed, same photons: the tallies do not depend on the kernel.
+    EXPECT_EQ(smooth.tallyPowerW(smooth.layerTallies()[kLayerScatter]), sharp.tallyPowerW(sharp.layerTallies()[kLayerScatter]));
+}
+
 // The one rule with scattering: guided paths own only unscattered light, weighted by the
 // probability of crossing dust and the bulk clear; the sum still equals plain Fresnel roulette.
 TEST(Scattering, GuidedAgreesWithNaiveWithDustAndBulkScattering) {

@@ -468,7 +468,8 @@ TEST(Render, CheckpointWithANonFiniteValueIsRefused) {
 
     // The checkpoint: a 3-word header, the statistics, four doubles per tally (the batches' and
     // the passes' sums and sums of squares), then the film (a magic word, six int32: width,
-    // height, ...; and per tile a presence byte followed by its doubles).
+    // height, ...; per layer its kernel (two int32 and a double); and per tile a presence byte
+    // followed by its doubles).
     const size_t tallies = 3 * sizeof(std::uint64_t) + sizeof(RenderStatistics);
     const size_t film = tallies + 4 * sizeof(double) *
                                       (first.tallies().size() + first.layerTallies().size() + first.scatterSourceTallies().size());
@@ -476,7 +477,8 @@ TEST(Render, CheckpointWithANonFiniteValueIsRefused) {
     std::memcpy(size, good.data() + film + sizeof(std::uint64_t), sizeof size);
     ASSERT_EQ(size[0], o.film.widthPx) << "the film is not where this test expects it";
     ASSERT_EQ(size[1], o.film.heightPx);
-    size_t tile = film + sizeof(std::uint64_t) + 6 * sizeof(std::int32_t);
+    size_t tile = film + sizeof(std::uint64_t) + 6 * sizeof(std::int32_t) +
+                  first.film().layerCount() * (2 * sizeof(std::int32_t) + sizeof(double));
     while (tile < good.size() && good[tile] == 0) ++tile;  // the first tile present
     ASSERT_LT(tile + sizeof(double), good.size());
     for (const auto& [offset, value] : {std::pair{tallies, std::nan("")}, std::pair{tile + 1, HUGE_VAL}}) {
