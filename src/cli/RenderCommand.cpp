@@ -365,7 +365,9 @@ void addRenderCommand(CLI::App& app) {
         ->check(CLI::Range(-1, 1000));
     render->add_option("--seed", o->seed, "random seed (default: the scene's)")->check(CLI::NonNegativeNumber);
     render->add_option("--threads", o->threads, "worker threads (default: all cores)")->check(CLI::PositiveNumber);
-    render->add_flag("--layers", o->layers, "add one layer per kept ghost (ghost_03_07.R/G/B)");
+    render->add_flag("--layers", o->layers,
+                     "add one layer per kept ghost (ghost_03_07.R/G/B) and per scatter source the scene has "
+                     "(scatter_housing, scatter_dust, scatter_grease, scatter_bulk)");
     render->add_option("--png", o->png, "also write a tone-mapped PNG");
     render->add_option("--report", o->report, "write a JSON report (per-ghost power with standard errors, layers, energy)");
     render->add_option("--checkpoint", o->checkpoint,

@@ -147,9 +147,6 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
       tracer_(lens, options.materials, options.maxBounces, options.contamination, options.media),
       film_(options.film, kFixedLayerCount) {
     for (int l = 0; l < kFixedLayerCount; ++l) layerNames_.push_back(renderLayerName(l));
-    if (options.scatterNeighbours > 0 && options.film.kernel == FilmSettings::Kernel::Fixed)
-        film_.setLayerKernel(kLayerScatter, FilmSettings::Kernel::Adaptive, options.scatterNeighbours,
-                             std::max(options.film.maxRadiusPx, options.film.widthPx / 16.0));
     std::unordered_map<std::string, int> ghostLayerOfLabel;
     const InteriorMaterials& m = options.materials;
     const bool anyScattering = m.housingAlbedo + m.edgeAlbedo + m.irisAlbedo + m.housingGlossy + m.edgeGlossy +
@@ -441,7 +438,30 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
         t.light = -1;
         scatterSourceTallies_.push_back(t);
     }
+    // With per-path layers, the scatter layer split by what the light met first, for the sources
+    // this scene has (the report's scatter_sources split the power the same way).
+    scatterSourceLayer_.assign(kScatterSources, -1);
+    if (options.perGhostLayers) {
+        bool dust = false, grease = false;
+        for (const SurfaceContamination& c : options.contamination)
+            dust = dust || c.dustCoverage > 0.0, grease = grease || c.greaseCoverage > 0.0;
+        const bool present[kScatterSources] = {
+            m.housingAlbedo + m.edgeAlbedo + m.irisAlbedo + m.housingGlossy + m.edgeGlossy + m.irisGlossy > 0.0, dust,
+            grease, !options.media.empty()};
+        for (int source = 0; source < kScatterSources; ++source) {
+            if (!present[source]) continue;
+            scatterSourceLayer_[source] = static_cast<int>(layerNames_.size());
+            layerNames_.push_back(std::string("scatter_") + toString(static_cast<ScatterSource>(source + 1)));
+        }
+    }
     if (layerNames_.size() > kFixedLayerCount) film_ = Film(options.film, static_cast<int>(layerNames_.size()));
+    if (options.scatterNeighbours > 0 && options.film.kernel == FilmSettings::Kernel::Fixed) {
+        const double maxRadiusPx = std::max(options.film.maxRadiusPx, options.film.widthPx / 16.0);
+        film_.setLayerKernel(kLayerScatter, FilmSettings::Kernel::Adaptive, options.scatterNeighbours, maxRadiusPx);
+        for (int layer : scatterSourceLayer_)
+            if (layer >= 0)
+                film_.setLayerKernel(layer, FilmSettings::Kernel::Adaptive, options.scatterNeighbours, maxRadiusPx);
+    }
     for (int l = 0; l < kFixedLayerCount; ++l) film_.addVarianceGroup({l});
     film_.addVarianceGroup({kLayerGhost, kLayerHigher, kLayerScatter});
 
@@ -603,7 +623,11 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
                     ghostLayer = light.ghostLayer[slot];
                 }
             }
-            if (arrival.scattered) out.sourceSums[static_cast<int>(arrival.firstScatter) - 1] += (xyzWeight * weight).y;
+            if (arrival.scattered) {
+                const int source = static_cast<int>(arrival.firstScatter) - 1;
+                out.sourceSums[source] += (xyzWeight * weight).y;
+                ghostLayer = scatterSourceLayer_[source];
+            }
             score(layer, ghostLayer, tally, arrival.positionMm, xyzWeight * weight);
         }
     }
@@ -736,7 +760,9 @@ void Renderer::merge(const std::vector<BatchResult>& batches, const std::vector<
     auto bucket = [&](const Hit& hit) {
         const glm::dvec2 sensorMm(hit.xMm, hit.yMm);
         const double row = film_.toPixel(sensorMm).y;
-        const double reach = film_.radiusPx(hit.layer, sensorMm) + 1.0;
+        const double reach =
+            std::max(film_.radiusPx(hit.layer, sensorMm), hit.ghostLayer >= 0 ? film_.radiusPx(hit.ghostLayer, sensorMm) : 0.0) +
+            1.0;
         const int first = std::max(0, static_cast<int>(std::floor((row - reach) / Film::kBandRows)));
         const int last = std::min(bandCount - 1, static_cast<int>(std::floor((row + reach) / Film::kBandRows)));
         for (int b = first; b <= last; ++b) byBand[b].push_back({&hit});

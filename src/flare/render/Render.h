@@ -242,6 +242,7 @@ private:
     std::vector<PathTally> scatterSourceTallies_;
     std::vector<BatchResult> batches_;  // scratch, one per batch of a pass
     std::vector<std::string> layerNames_;
+    std::vector<int> scatterSourceLayer_;  // per scatter source: its film layer, −1 if none
     IndexTable indexTable_;
     PhotonTracer tracer_;
     Film film_;

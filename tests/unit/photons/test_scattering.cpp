@@ -255,6 +255,41 @@ TEST(Scattering, SmoothScatterLayerIsCloserToTheReferenceThanTheSharpOne) {
     EXPECT_EQ(smooth.tallyPowerW(smooth.layerTallies()[kLayerScatter]), sharp.tallyPowerW(sharp.layerTallies()[kLayerScatter]));
 }
 
+// With per-path layers, the scatter layer is also split by source into layers of their own,
+// for the sources the scene has; with the same kernel they add up to the scatter layer pixel by
+// pixel, and each holds its source's share of the power.
+TEST(Scattering, ScatterSourceLayersAddUpToTheScatterLayer) {
+    const Scene scene = doubletScene(R"({ "housing": { "diffuse": 0.3 },
+        "dust": [ { "surface": 1, "coverage": 0.05, "albedo": 0.6 } ],
+        "bulk": [ { "element": 4, "scattering_per_mm": 0.02, "g": 0.6 } ] })");
+    const LensSystem lens = buildSceneLens(scene);
+    RenderOptions o = test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Guided);
+    o.perGhostLayers = true;
+    o.scatterNeighbours = 0;  // the tent for all: sums are then exact pixel by pixel
+    Renderer r(lens, scene.lights, o);
+    for (int p = 0; p < 3; ++p) r.runPass();
+    const std::vector<std::string>& names = r.layerNames();
+    std::vector<int> sources;
+    for (size_t l = 0; l < names.size(); ++l)
+        if (names[l].rfind("scatter_", 0) == 0) sources.push_back(static_cast<int>(l));
+    ASSERT_EQ(sources.size(), 3u);  // housing, dust, bulk; no grease in this scene
+    EXPECT_EQ(names[sources[0]], "scatter_housing");
+    EXPECT_EQ(names[sources[1]], "scatter_dust");
+    EXPECT_EQ(names[sources[2]], "scatter_bulk");
+    const std::vector<float> total = r.layerXyz(kLayerScatter);
+    std::vector<double> sum(total.size(), 0.0);
+    for (int l : sources) {
+        const std::vector<float> part = r.layerXyz(l);
+        double y = 0.0;
+        for (size_t i = 0; i < part.size(); ++i) sum[i] += part[i], y += i % 3 == 1 ? part[i] : 0.0;
+        EXPECT_GT(y, 0.0) << names[l];
+    }
+    double largest = 0.0;
+    for (float v : total) largest = std::max(largest, static_cast<double>(v));
+    ASSERT_GT(largest, 0.0);
+    for (size_t i = 0; i < total.size(); ++i) ASSERT_NEAR(sum[i], total[i], 1e-5 * largest) << i;
+}
+
 // The one rule with scattering: guided paths own only unscattered light, weighted by the
 // probability of crossing dust and the bulk clear; the sum still equals plain Fresnel roulette.
 TEST(Scattering, GuidedAgreesWithNaiveWithDustAndBulkScattering) {
