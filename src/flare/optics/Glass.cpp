@@ -101,6 +101,17 @@ Medium Medium::abbe(double nd, double vd) {
     return m;
 }
 
+Medium Medium::cauchy(double nd, double vd) {
+    assert(nd > 1.0 && vd > 0.0);
+    Medium m;
+    m.kind_ = Kind::Cauchy;
+    m.nd_ = nd;
+    m.vd_ = vd;
+    m.cauchyBNm2_ = ((nd - 1.0) / vd) / (1.0 / (kLineFNm * kLineFNm) - 1.0 / (kLineCNm * kLineCNm));
+    m.cauchyA_ = nd - m.cauchyBNm2_ / (kLineDNm * kLineDNm);
+    return m;
+}
+
 double Medium::indexAt(double wavelengthNm) const {
     switch (kind_) {
         case Kind::Air: return 1.0;
@@ -110,6 +121,7 @@ double Medium::indexAt(double wavelengthNm) const {
             const double baseNd = catalogIndex(*glass_, kLineDNm);
             return nd_ + dispersionScale_ * (catalogIndex(*glass_, wavelengthNm) - baseNd);
         }
+        case Kind::Cauchy: return cauchyA_ + cauchyBNm2_ / (wavelengthNm * wavelengthNm);
     }
     return 1.0;
 }
@@ -134,6 +146,9 @@ std::string Medium::describe() const {
         case Kind::AbbeMatched:
             std::snprintf(buffer, sizeof buffer, "%.5f/%.2f (dispersion of %s, %s)", nd_, vd_,
                           glass_->name, glass_->maker);
+            return buffer;
+        case Kind::Cauchy:
+            std::snprintf(buffer, sizeof buffer, "%.5f/%.2f (Cauchy)", nd_, vd_);
             return buffer;
     }
     return "?";

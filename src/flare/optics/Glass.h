@@ -43,7 +43,7 @@ const CatalogGlass& nearestCatalogGlass(double nd, double vd);
 
 class Medium {
 public:
-    enum class Kind { Air, Constant, Catalog, AbbeMatched };
+    enum class Kind { Air, Constant, Catalog, AbbeMatched, Cauchy };
 
     static Medium air();
     static Medium constant(double index);
@@ -51,6 +51,10 @@ public:
     // A glass known by (nd, Vd) only: the dispersion shape of the nearest catalogue glass, scaled
     // so that n(d) = nd and (nd − 1)/(nF − nC) = Vd hold exactly.
     static Medium abbe(double nd, double vd);
+    // The same (nd, Vd) with Cauchy's two-term dispersion n(λ) = A + B/λ² through the d line and
+    // with nF − nC = (nd − 1)/Vd: the simplest model these two numbers define, the other
+    // reasonable choice against which the library's lenses were compared (docs/lens-library.md).
+    static Medium cauchy(double nd, double vd);
 
     double indexAt(double wavelengthNm) const;
 
@@ -72,6 +76,7 @@ private:
     double nd_ = 1.0;
     double vd_ = 0.0;
     double dispersionScale_ = 1.0;  // AbbeMatched: n(λ) = nd + scale·(n_base(λ) − nd_base)
+    double cauchyA_ = 1.0, cauchyBNm2_ = 0.0;  // Cauchy: n(λ) = A + B/λ², λ in nm
 };
 
 }  // namespace flare

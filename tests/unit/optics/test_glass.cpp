@@ -71,6 +71,24 @@ TEST(Medium, AbbeMatchedGlassReproducesItsNdAndVdExactly) {
     }
 }
 
+TEST(Medium, CauchyGlassReproducesItsNdAndVdAndFollowsOneOverLambdaSquared) {
+    for (const auto& [nd, vd] : {std::pair{1.670, 47.1}, std::pair{1.5168, 64.17}, std::pair{1.92286, 20.9}}) {
+        const Medium m = Medium::cauchy(nd, vd);
+        EXPECT_EQ(m.kind(), Medium::Kind::Cauchy);
+        EXPECT_EQ(m.baseGlass(), nullptr);
+        const double n = m.indexAt(kLineDNm);
+        EXPECT_NEAR(n, nd, 1e-12);
+        EXPECT_NEAR((n - 1.0) / (m.indexAt(kLineFNm) - m.indexAt(kLineCNm)), vd, 1e-9);
+        // Two terms: n(λ) − A is exactly B/λ², so the index differences scale as 1/λ² differences.
+        const double r = (m.indexAt(400.0) - m.indexAt(700.0)) / (m.indexAt(500.0) - m.indexAt(700.0));
+        EXPECT_NEAR(r, (1.0 / (400.0 * 400.0) - 1.0 / (700.0 * 700.0)) / (1.0 / (500.0 * 500.0) - 1.0 / (700.0 * 700.0)), 1e-9);
+    }
+    // Near a real glass, the two models part by ~1e-3 at the ends of the visible: N-BK7 at 400 nm.
+    const Medium cauchy = Medium::cauchy(1.51680, 64.17), abbe = Medium::abbe(1.51680, 64.17);
+    EXPECT_LT(std::abs(cauchy.indexAt(400.0) - abbe.indexAt(400.0)), 2e-3);
+    EXPECT_GT(std::abs(cauchy.indexAt(400.0) - abbe.indexAt(400.0)), 1e-5);
+}
+
 TEST(Medium, AbbeMatchingPicksTheCatalogueGlassWithThoseValues) {
     const Medium m = Medium::abbe(1.51680, 64.17);
     EXPECT_STREQ(m.baseGlass()->name, "N-BK7");
