@@ -60,7 +60,8 @@ constexpr int kBeamTableIntervals = 128;
 // The largest share of its layer's power a single beam is expected to carry (a floor under the
 // weak paths' beam rates).
 constexpr double kMaxBeamShare = 0.05;
-// The share of the beam budget that may go to giving every beam-rendered path a beam per pass.
+// The share of the beam budget that may go to giving every beam-rendered path of a layer a beam
+// per pass (per layer: the ghosts, the order-4 chains).
 constexpr double kFloorBudgetShare = 0.1;
 
 struct Hit {
@@ -381,24 +382,25 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
         // Rates: the budget split by weight, with two floors. A weak path drawn with a tiny rate
         // would appear in a few passes only, each time weighted by one over that rate:
         // heavy-tailed, and a short render that drew none would see no spread and report its
-        // part as 0 ± 0. So every path gets one beam per pass, or, when there are too many paths
-        // for that, an equal share of kFloorBudgetShare of the budget; and no beam is expected to
-        // carry more than kMaxBeamShare of its layer's power (over the spectrum), a floor that
-        // sums to at most 1 / kMaxBeamShare beams per layer.
+        // part as 0 ± 0. So every path of a layer (ghosts; order-4 chains) gets one beam per
+        // pass, or, when the layer has too many paths for that, an equal share of
+        // kFloorBudgetShare of the budget; and no beam is expected to carry more than
+        // kMaxBeamShare of its layer's power (over the spectrum), a floor that sums to at most
+        // 1 / kMaxBeamShare beams per layer.
         double totalBeamWeight = 0.0;
         double layerPower[kFixedLayerCount] = {};
-        int beamPaths = 0;
+        int layerPaths[kFixedLayerCount] = {};
         for (int slot = 1; slot < state.slots; ++slot) {
             totalBeamWeight += beamWeight[slot];
             if (state.strategy[slot] != PathStrategy::Beams) continue;
             layerPower[state.layer[slot]] += spectralPower[slot];
-            ++beamPaths;
+            ++layerPaths[state.layer[slot]];
         }
-        const double everyPathFloor =
-            std::min(1.0, kFloorBudgetShare * options.beamsPerPass / std::max(beamPaths, 1));
         for (int slot = 1; slot < state.slots; ++slot)
             if (state.strategy[slot] == PathStrategy::Beams) {
-                const double shareFloor = spectralPower[slot] / (kMaxBeamShare * layerPower[state.layer[slot]]);
+                const int layer = state.layer[slot];
+                const double everyPathFloor = std::min(1.0, kFloorBudgetShare * options.beamsPerPass / layerPaths[layer]);
+                const double shareFloor = spectralPower[slot] / (kMaxBeamShare * layerPower[layer]);
                 state.beamRate[slot] = std::max({options.beamsPerPass * beamWeight[slot] / totalBeamWeight,
                                                  shareFloor, everyPathFloor});
                 ++plan.beamGhosts;

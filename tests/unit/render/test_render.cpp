@@ -381,6 +381,63 @@ TEST(Render, OrderFourAnalysisIsBoundedByTheChainCap) {
     EXPECT_LE(guidedChains, cap);
 }
 
+// The uncoated double Gauss of pbrt (the thesis's kind of lens: strong ghosts, order-4 chains
+// worth guiding): beams against guided photons per path (ghosts and the guided order-4 chains) and
+// block by block, and the guided render against naive per layer. Minutes: run with
+// FLARE_LONG_TESTS=1 (the ctest `stress` label does).
+TEST(Render, BeamsAgreeWithGuidedPhotonsAndNaiveOnTheUncoatedDoubleGauss) {
+    if (!std::getenv("FLARE_LONG_TESTS")) GTEST_SKIP() << "set FLARE_LONG_TESTS=1 to run";
+    const std::string text = R"({
+  "lens": ")" + test::sourcePath("tests/data/dgauss.50mm.dat") + R"(",
+  "sensor": { "resolution": [150, 100] },
+  "lights": [ { "type": "directional", "field_deg": [8.0, 5.0], "angular_diameter_deg": 0.53, "spectrum": { "blackbody_k": 5778 } } ]
+})";
+    const Scene scene = parseSceneText(text, "dgauss.json", "");
+    const LensSystem lens = buildSceneLens(scene);
+    RenderOptions beamOptions = optionsFor(scene, lens, RenderOptions::Mode::Guided);
+    beamOptions.beamsPerPass = 256;  // ~50 ghosts and 512 chains: enough beams for per-ghost errors
+    Renderer beams(lens, scene.lights, beamOptions);
+    ASSERT_TRUE(beams.lights().front().higherOrderGuided);  // uncoated: order-4 chains are guided
+    Renderer photons(lens, scene.lights, optionsFor(scene, lens, RenderOptions::Mode::GuidedPhotons));
+    Renderer naive(lens, scene.lights, optionsFor(scene, lens, RenderOptions::Mode::Naive));
+    const int blockPx = 10;
+    const BlockStatistics b = runRecordingBlocks(beams, 60, kLayerGhost, blockPx);
+    const BlockStatistics p = runRecordingBlocks(photons, 120, kLayerGhost, blockPx);
+    for (int pass = 0; pass < 400; ++pass) naive.runPass();
+
+    // Per ghost (the order-4 chains, 512 of them sharing a tenth of the beams as a floor, are
+    // drawn too rarely in this time for their own standard errors: they are compared as a layer).
+    struct Pair { std::string what; double a, sa, b, sb; };
+    std::vector<Pair> pairs;
+    int beamPaths = 0;
+    for (const PathTally& t : beams.tallies()) {
+        if (t.kind != PathTally::Kind::Ghost || !t.guided || t.path.reflections.size() != 2) continue;
+        for (const PathTally& u : photons.tallies())
+            if (u.kind == t.kind && u.light == t.light && u.path == t.path)
+                pairs.push_back({t.path.label() + " (" + toString(t.strategy) + ")", beams.tallyPowerW(t),
+                                 beams.tallyStandardErrorW(t), photons.tallyPowerW(u), photons.tallyStandardErrorW(u)});
+        beamPaths += t.strategy == PathStrategy::Beams;
+    }
+    EXPECT_GE(beamPaths, 30);
+    // Per layer, against guided photons and against naive.
+    for (const Renderer* other : {&photons, &naive})
+        for (int l : {kLayerDirect, kLayerGhost, kLayerHigher})
+            pairs.push_back({std::string("layer ") + renderLayerName(l) + (other == &naive ? " against naive" : " against photons"),
+                             beams.tallyPowerW(beams.layerTallies()[l]), beams.tallyStandardErrorW(beams.layerTallies()[l]),
+                             other->tallyPowerW(other->layerTallies()[l]), other->tallyStandardErrorW(other->layerTallies()[l])});
+    const double z = bonferroniZ(1e-3, static_cast<int>(pairs.size()));
+    for (const Pair& q : pairs) {
+        const double sigma = std::hypot(q.sa, q.sb);
+        if (q.a == 0.0 && q.b == 0.0) continue;
+        ASSERT_GT(sigma, 0.0) << q.what;
+        EXPECT_LT(std::abs(q.a - q.b), z * sigma) << q.what << ": " << q.a << " ± " << q.sa << " against " << q.b << " ± " << q.sb;
+    }
+    // Block by block.
+    const auto [worst, blocks] = largestBlockDeviation(b, p, 1e-3);
+    EXPECT_GE(blocks, 30);
+    EXPECT_LT(worst, bonferroniZ(1e-3, blocks));
+}
+
 void expectSameRender(const Renderer& a, const Renderer& b) {
     ASSERT_EQ(a.layerNames(), b.layerNames());
     for (int l = 0; l < static_cast<int>(a.layerNames().size()); ++l) EXPECT_EQ(a.layerXyz(l), b.layerXyz(l)) << l;
