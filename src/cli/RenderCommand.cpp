@@ -33,7 +33,7 @@ struct RenderCommandOptions {
     std::string kernel = "fixed";
     std::string higherOrder = "auto";
     double radiusPx = 1.0;
-    int scatterNeighbours = 256;
+    int smoothNeighbours = 256;
     long long photons = -1;  // −1: the scene's
     double timeS = 0.0;
     double targetError = 0.02;  // 0: none
@@ -235,7 +235,7 @@ int run(const RenderCommandOptions& o) {
                           : o.kernel == "adaptive"  ? FilmSettings::Kernel::Adaptive
                                                     : FilmSettings::Kernel::Fixed;
     options.film.radiusPx = o.radiusPx;
-    options.scatterNeighbours = o.scatterNeighbours;
+    options.smoothNeighbours = o.smoothNeighbours;
     if (o.kernel == "progressive" && o.radiusPx == 1.0) options.film.radiusPx = 4.0;
 
     Renderer renderer(lens, scene.lights, options);
@@ -382,9 +382,9 @@ void addRenderCommand(CLI::App& app) {
         ->check(CLI::IsMember({"fixed", "progressive", "adaptive"}));
     render->add_option("--radius", o->radiusPx, "kernel radius in pixels (fixed; first pass for progressive)")
         ->check(CLI::PositiveNumber);
-    render->add_option("--scatter-neighbours", o->scatterNeighbours,
-                       "the scatter layer's adaptive kernel holds about this many photons (default 256; 0: the "
-                       "film's kernel; only with --kernel fixed)")
+    render->add_option("--smooth-neighbours", o->smoothNeighbours,
+                       "the scatter layer's and the higher layer's photons are splatted by an adaptive kernel holding "
+                       "about this many photons (default 256; 0: the film's kernel; only with --kernel fixed)")
         ->check(CLI::Range(0, 1000000));
     render->add_option("--interior-albedo", o->interiorAlbedo,
                        "diffuse albedo of the barrel, element edges and iris blades, overriding the scene's finishes")

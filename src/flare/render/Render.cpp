@@ -457,12 +457,15 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
         }
     }
     if (layerNames_.size() > kFixedLayerCount) film_ = Film(options.film, static_cast<int>(layerNames_.size()));
-    if (options.scatterNeighbours > 0 && options.film.kernel == FilmSettings::Kernel::Fixed) {
+    if (options.smoothNeighbours > 0 && options.film.kernel == FilmSettings::Kernel::Fixed) {
         const double maxRadiusPx = std::max(options.film.maxRadiusPx, options.film.widthPx / 16.0);
-        film_.setLayerKernel(kLayerScatter, FilmSettings::Kernel::Adaptive, options.scatterNeighbours, maxRadiusPx);
+        film_.setLayerKernel(kLayerScatter, FilmSettings::Kernel::Adaptive, options.smoothNeighbours, maxRadiusPx);
+        // The higher layer's photons too (its beams are rasterised exactly, whatever the kernel):
+        // what the guided chains leave to the unguided tracer, a few sparse photons.
+        film_.setLayerKernel(kLayerHigher, FilmSettings::Kernel::Adaptive, options.smoothNeighbours, maxRadiusPx);
         for (int layer : scatterSourceLayer_)
             if (layer >= 0)
-                film_.setLayerKernel(layer, FilmSettings::Kernel::Adaptive, options.scatterNeighbours, maxRadiusPx);
+                film_.setLayerKernel(layer, FilmSettings::Kernel::Adaptive, options.smoothNeighbours, maxRadiusPx);
     }
     for (int l = 0; l < kFixedLayerCount; ++l) film_.addVarianceGroup({l});
     film_.addVarianceGroup({kLayerGhost, kLayerHigher, kLayerScatter});
@@ -944,7 +947,7 @@ std::uint64_t Renderer::fingerprint() const {
                         static_cast<int>(options_.film.kernel), lens_->surfaceCount(), options_.beamsPerPass,
                         options_.correctionPhotonsPerBeam, options_.beamMeshLevel,
                         static_cast<int>(std::lround(options_.testBeamShiftPx * 1024.0)), options_.maxAnalysedChains,
-                        options_.scatterNeighbours};
+                        options_.smoothNeighbours};
     mix(ints, sizeof ints);
     for (const Component& c : components_) {
         mix(&c.light, sizeof c.light);

@@ -62,11 +62,13 @@ struct RenderOptions {
     // to photon-guided ghosts in proportion to their estimated power (when there are none, the
     // unguided tracer and the direct image share everything in these proportions).
     double unguidedShare = 0.1;
-    // The `scatter` layer, veiling glare that varies slowly across the frame, is estimated as
-    // smooth: with the film's fixed kernel, its photons get an adaptive kernel (Film::
+    // The `scatter` layer (veiling glare, which varies slowly across the frame) and the photons
+    // of the `higher` layer (the few that the guided chains leave to the unguided tracer) are
+    // estimated as smooth: with the film's fixed kernel, they get an adaptive kernel (Film::
     // setLayerKernel) that holds about this many earlier photons, at most a sixteenth of the
-    // frame's width in radius (0: the film's kernel, like the other layers).
-    int scatterNeighbours = 256;
+    // frame's width in radius (0: the film's kernel, like the other layers). Beams are rasterised
+    // exactly whatever the kernel.
+    int smoothNeighbours = 256;
     double directShare = 0.1;
     int batchPhotons = 1024;
     int batchesPerPass = 64;

@@ -222,7 +222,7 @@ TEST(Scattering, ScatterLayerGrowsWithTheScatteringCoefficient) {
     EXPECT_NEAR(ratio, 2.0, 0.05 * 2.0 + test::normalTwoSidedCritical(1e-3) * ratioError);
 }
 
-// The scatter layer estimated as smooth (RenderOptions::scatterNeighbours): the same photons
+// The scatter layer estimated as smooth (RenderOptions::smoothNeighbours): the same photons
 // splatted by an adaptive kernel instead of the 1-px tent. Against a long fixed-kernel reference
 // the smoothed image is closer than the fixed one of the same photons (its bias is below the
 // noise it removes), its estimated error is smaller, and the layer's power is the same.
@@ -230,9 +230,9 @@ TEST(Scattering, SmoothScatterLayerIsCloserToTheReferenceThanTheSharpOne) {
     const Scene scene = doubletScene(R"({ "bulk": [ { "element": 1, "scattering_per_mm": 0.01, "g": 0.3 } ] })");
     const LensSystem lens = buildSceneLens(scene);
     RenderOptions sharpOptions = test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Guided, 7);
-    sharpOptions.scatterNeighbours = 0;
+    sharpOptions.smoothNeighbours = 0;
     RenderOptions smoothOptions = sharpOptions;
-    smoothOptions.scatterNeighbours = 256;
+    smoothOptions.smoothNeighbours = 256;
     RenderOptions referenceOptions = sharpOptions;
     referenceOptions.seed = 8;
     Renderer sharp(lens, scene.lights, sharpOptions), smooth(lens, scene.lights, smoothOptions);
@@ -265,7 +265,7 @@ TEST(Scattering, ScatterSourceLayersAddUpToTheScatterLayer) {
     const LensSystem lens = buildSceneLens(scene);
     RenderOptions o = test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Guided);
     o.perGhostLayers = true;
-    o.scatterNeighbours = 0;  // the tent for all: sums are then exact pixel by pixel
+    o.smoothNeighbours = 0;  // the tent for all: sums are then exact pixel by pixel
     Renderer r(lens, scene.lights, o);
     for (int p = 0; p < 3; ++p) r.runPass();
     const std::vector<std::string>& names = r.layerNames();
