@@ -9,10 +9,24 @@
 namespace flare {
 
 Coating Coating::quarterWave(std::string name, double index, double designWavelengthNm) {
-    return Coating{std::move(name), {{index, designWavelengthNm / (4.0 * index)}}};
+    return Coating{std::move(name), {{index, designWavelengthNm / (4.0 * index)}}, {}};
 }
 
 Coating Coating::magnesiumFluoride() { return quarterWave("mgf2", 1.38, 550.0); }
+
+Coating Coating::idealFlat(std::string name, double reflectance) {
+    return Coating{std::move(name), {}, IdealReflectance{{550.0}, {reflectance}}};
+}
+
+double IdealReflectance::at(double wavelengthNm) const {
+    assert(!wavelengthsNm.empty() && wavelengthsNm.size() == reflectances.size());
+    if (wavelengthNm <= wavelengthsNm.front()) return reflectances.front();
+    if (wavelengthNm >= wavelengthsNm.back()) return reflectances.back();
+    const size_t i = static_cast<size_t>(
+        std::upper_bound(wavelengthsNm.begin(), wavelengthsNm.end(), wavelengthNm) - wavelengthsNm.begin());
+    const double t = (wavelengthNm - wavelengthsNm[i - 1]) / (wavelengthsNm[i] - wavelengthsNm[i - 1]);
+    return reflectances[i - 1] + t * (reflectances[i] - reflectances[i - 1]);
+}
 
 namespace {
 
@@ -44,7 +58,7 @@ void respond(const LayerMatrix& m, double eta0, double etaSub, double* r, double
 // and each reciprocal is taken once.
 FresnelTerms thinFilmResponse(const Coating& coating, double cosThetaI, double nAir, double nGlass,
                               bool fromAirSide, double wavelengthNm) {
-    if (coating.layers.empty()) {
+    if (!coating.changesInterface()) {
         return fromAirSide ? fresnelDielectric(cosThetaI, nAir, nGlass)
                            : fresnelDielectric(cosThetaI, nGlass, nAir);
     }
@@ -59,6 +73,12 @@ FresnelTerms thinFilmResponse(const Coating& coating, double cosThetaI, double n
         terms.ts = terms.tp = 0.0;
         terms.cosThetaT = 0.0;
         terms.totalInternalReflection = true;
+        return terms;
+    }
+    if (coating.ideal) {
+        terms.rs = terms.rp = coating.ideal->at(wavelengthNm);
+        terms.ts = terms.tp = 1.0 - terms.rs;
+        terms.cosThetaT = std::sqrt(1.0 - invariant2 / (nSub * nSub));
         return terms;
     }
     if (cosThetaI == 0.0) {  // grazing: the limit (the p admittance n0/cosθ would be infinite)

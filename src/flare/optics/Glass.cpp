@@ -7,6 +7,9 @@
 #include <cstdio>
 #include <limits>
 
+#include "flare/core/Spectrum.h"
+#include "flare/optics/AgfCatalog.h"
+
 namespace flare {
 
 namespace {
@@ -27,29 +30,86 @@ bool equalsIgnoreCase(std::string_view a, std::string_view b) {
 
 }  // namespace
 
-double catalogIndex(const CatalogGlass& glass, double wavelengthNm) {
+double dispersionIndex(GlassFormula formula, const double* k, double wavelengthNm) {
     const double l = wavelengthNm * 1e-3;  // µm
-    const double l2 = l * l;
-    const double* k = glass.coefficients;
+    const double l2 = l * l, inv2 = 1.0 / l2;
+    // Σ Kᵢλ²/(λ² − Lᵢ) over `terms` interleaved (K, L) pairs.
+    auto sellmeier = [&](int terms) {
+        double sum = 0.0;
+        for (int i = 0; i < terms; ++i) sum += k[2 * i] * l2 / (l2 - k[2 * i + 1]);
+        return sum;
+    };
+    // a0 + a1λ² + a2λ⁻² + a3λ⁻⁴ + …, the negative powers from k[2] on, `negative` of them.
+    auto laurent = [&](int negative) {
+        double tail = 0.0;
+        for (int i = negative - 1; i >= 0; --i) tail = inv2 * (k[2 + i] + tail);
+        return k[0] + k[1] * l2 + tail;
+    };
     double n2 = 1.0;
-    switch (glass.formula) {
+    switch (formula) {
         case GlassFormula::Sellmeier3:
             n2 = 1.0 + k[0] * l2 / (l2 - k[3]) + k[1] * l2 / (l2 - k[4]) + k[2] * l2 / (l2 - k[5]);
             break;
-        case GlassFormula::Polynomial: {
-            const double inv2 = 1.0 / l2;
-            n2 = k[0] + k[1] * l2 + inv2 * (k[2] + inv2 * (k[3] + inv2 * (k[4] + inv2 * k[5])));
+        case GlassFormula::Polynomial:
+        case GlassFormula::AgfSchott: n2 = laurent(4); break;
+        case GlassFormula::AgfSellmeier1: n2 = 1.0 + sellmeier(3); break;
+        case GlassFormula::AgfHerzberger: {
+            const double L = 1.0 / (l2 - 0.028);
+            return k[0] + k[1] * L + k[2] * L * L + l2 * (k[3] + l2 * (k[4] + l2 * k[5]));
+        }
+        case GlassFormula::AgfSellmeier2:
+            n2 = 1.0 + k[0] + k[1] * l2 / (l2 - k[2] * k[2]) + k[3] / (l2 - k[4] * k[4]);
+            break;
+        case GlassFormula::AgfConrady: return k[0] + k[1] / l + k[2] / std::pow(l, 3.5);
+        case GlassFormula::AgfSellmeier3: n2 = 1.0 + sellmeier(4); break;
+        case GlassFormula::AgfHandbook1: n2 = k[0] + k[1] / (l2 - k[2]) - k[3] * l2; break;
+        case GlassFormula::AgfHandbook2: n2 = k[0] + k[1] * l2 / (l2 - k[2]) - k[3] * l2; break;
+        case GlassFormula::AgfSellmeier4: n2 = k[0] + k[1] * l2 / (l2 - k[2]) + k[3] * l2 / (l2 - k[4]); break;
+        case GlassFormula::AgfExtended1: n2 = laurent(6); break;
+        case GlassFormula::AgfSellmeier5: n2 = 1.0 + sellmeier(5); break;
+        case GlassFormula::AgfExtended2: n2 = laurent(4) + l2 * l2 * (k[6] + k[7] * l2); break;
+        case GlassFormula::AgfExtended3: {
+            double tail = 0.0;
+            for (int i = 5; i >= 0; --i) tail = inv2 * (k[3 + i] + tail);
+            n2 = k[0] + l2 * (k[1] + l2 * k[2]) + tail;
             break;
         }
     }
     return std::sqrt(n2);
 }
 
+double catalogIndex(const CatalogGlass& glass, double wavelengthNm) {
+    return dispersionIndex(glass.formula, glass.coefficients, wavelengthNm);
+}
+
+bool coversVisible(const CatalogGlass& glass) {
+    if (glass.maxWavelengthNm > 0.0 && (glass.minWavelengthNm > kLineFNm || glass.maxWavelengthNm < kLineCNm))
+        return false;
+    for (double nm = kCieMinNm; nm <= kCieMaxNm; nm += 10.0)
+        if (!(catalogIndex(glass, nm) >= 1.0)) return false;
+    return true;
+}
+
+std::string validRangeText(const CatalogGlass& glass) {
+    if (!(glass.maxWavelengthNm > 0.0)) return "its formula gives no real index across 360 to 830 nm";
+    char buffer[96];
+    std::snprintf(buffer, sizeof buffer, "its catalogue range is %g to %g µm", glass.minWavelengthNm * 1e-3,
+                  glass.maxWavelengthNm * 1e-3);
+    return buffer;
+}
+
 std::span<const CatalogGlass> glassCatalog() { return kCatalog; }
 
 const CatalogGlass* findCatalogGlass(std::string_view name) {
-    for (const CatalogGlass& g : kCatalog)
-        if (equalsIgnoreCase(g.name, name)) return &g;
+    const size_t colon = name.find(':');
+    if (colon == std::string_view::npos)
+        for (const CatalogGlass& g : kCatalog)
+            if (equalsIgnoreCase(g.name, name)) return &g;
+    for (const AgfCatalog& catalog : shippedGlassCatalogs()) {
+        if (colon != std::string_view::npos && !equalsIgnoreCase(catalog.name(), name.substr(0, colon))) continue;
+        if (const CatalogGlass* g = catalog.find(colon == std::string_view::npos ? name : name.substr(colon + 1)))
+            return g;
+    }
     return nullptr;
 }
 

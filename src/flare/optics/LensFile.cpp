@@ -7,6 +7,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <span>
 #include <sstream>
 #include <vector>
 
@@ -131,9 +132,14 @@ public:
             if (vd < 5.0 || vd > 150.0) error(line, "material Vd must lie in [5, 150], got " + std::string(token));
             return Medium::abbe(nd, vd);
         }
-        if (const CatalogGlass* glass = findCatalogGlass(token)) return Medium::catalog(*glass);
+        if (const CatalogGlass* glass = findCatalogGlass(token)) {
+            if (!coversVisible(*glass))
+                error(line, "glass '" + std::string(token) + "' (" + glass->maker +
+                                ") is not made for the visible: " + validRangeText(*glass));
+            return Medium::catalog(*glass);
+        }
         error(line, "unknown glass '" + std::string(token) +
-                        "' (not in the built-in catalogue; give it as nd/Vd, e.g. 1.6700/47.20)");
+                        "' (not in the built-in or the shipped catalogues; give it as nd/Vd, e.g. 1.6700/47.20)");
     }
 
 private:
@@ -209,10 +215,33 @@ double layerIndex(const Parser& parser, int line, std::string_view token) {
     return index;
 }
 
+// `R=0.04` (flat) or `wavelength_nm:R` points in increasing wavelength.
+IdealReflectance parseIdealReflectance(const Parser& parser, int line, std::span<const std::string_view> tokens) {
+    IdealReflectance ideal;
+    for (const std::string_view token : tokens) {
+        if (lower(token.substr(0, 2)) == "r=") {
+            if (tokens.size() != 1) parser.error(line, "an ideal coating takes either R= or wavelength_nm:R points, not both");
+            ideal.wavelengthsNm.push_back(550.0);
+            ideal.reflectances.push_back(parser.fraction(line, token.substr(2), "ideal coating reflectance R"));
+            continue;
+        }
+        const size_t colon = token.find(':');
+        if (colon == std::string_view::npos)
+            parser.error(line, "ideal coating point '" + std::string(token) + "' must be wavelength_nm:R (or give R=)");
+        const double wavelength = parser.positive(line, token.substr(0, colon), "ideal coating wavelength");
+        if (!ideal.wavelengthsNm.empty() && wavelength <= ideal.wavelengthsNm.back())
+            parser.error(line, "ideal coating wavelengths must increase");
+        ideal.wavelengthsNm.push_back(wavelength);
+        ideal.reflectances.push_back(parser.fraction(line, token.substr(colon + 1), "ideal coating reflectance"));
+    }
+    if (ideal.wavelengthsNm.empty()) parser.error(line, "an ideal coating needs R= or wavelength_nm:R points");
+    return ideal;
+}
+
 void parseCoating(const Parser& parser, LensPrescription& p, int line,
                   const std::vector<std::string_view>& tokens) {
     if (tokens.size() < 4)
-        parser.error(line, "coating needs a name, a kind (single or stack) and its layers");
+        parser.error(line, "coating needs a name, a kind (single, stack or ideal) and its layers or reflectance");
     Coating coating;
     coating.name = std::string(tokens[1]);
     if (coating.name == "none" || coating.name == "mgf2")
@@ -239,8 +268,10 @@ void parseCoating(const Parser& parser, LensPrescription& p, int line,
             coating.layers.push_back({layerIndex(parser, line, tokens[i].substr(0, colon)),
                                       parser.positive(line, tokens[i].substr(colon + 1), "layer thickness")});
         }
+    } else if (kind == "ideal") {
+        coating.ideal = parseIdealReflectance(parser, line, std::span(tokens).subspan(3));
     } else {
-        parser.error(line, "unknown coating kind '" + std::string(tokens[2]) + "' (single or stack)");
+        parser.error(line, "unknown coating kind '" + std::string(tokens[2]) + "' (single, stack or ideal)");
     }
     for (const Coating& c : p.coatings)
         if (c.name == coating.name) parser.error(line, "coating '" + coating.name + "' is defined twice");

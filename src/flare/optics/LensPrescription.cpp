@@ -17,7 +17,7 @@ const VariableGap* LensPrescription::findGap(const std::string& gapName) const {
 std::optional<Coating> LensPrescription::findCoating(const std::string& coatingName) const {
     for (const Coating& c : coatings)
         if (c.name == coatingName) return c;
-    if (coatingName == "none") return Coating{"none", {}};
+    if (coatingName == "none") return Coating{"none", {}, {}};
     if (coatingName == "mgf2") return Coating::magnesiumFluoride();
     return std::nullopt;
 }

@@ -187,7 +187,7 @@ LensSystem LensSystem::build(const LensPrescription& p, const LensState& state) 
             const std::optional<Coating> coating = p.findCoating(name);
             if (!coating)
                 throw InputError(p.sourceFile, p.rows[i].line, "unknown coating '" + name + "'");
-            if (!coating->layers.empty()) {
+            if (coating->changesInterface()) {
                 auto it = std::find_if(lens.coatings_.begin(), lens.coatings_.end(),
                                        [&](const Coating& c) { return c.name == coating->name; });
                 if (it == lens.coatings_.end()) {

@@ -163,6 +163,42 @@ std::string readFile(const std::string& path) {
     return buffer.str();
 }
 
+// "coating": "NAME" or { "ideal_reflectance": R } or { "ideal_reflectance": [[nm, R], ...] }.
+SceneCoating parseCoating(const Checker& c, const Node& node) {
+    SceneCoating coating;
+    if (node.kind == Node::Kind::String) {
+        if (node.text.empty()) c.fail(node.line, "coating", "must name a coating of the lens or be an object");
+        coating.name = node.text;
+        return coating;
+    }
+    if (node.kind != Node::Kind::Object)
+        c.fail(node.line, "coating",
+               "must be a coating name (\"none\", \"mgf2\", one the lens defines) or { \"ideal_reflectance\": R }, got " +
+                   describe(node));
+    c.object(node, "coating", {"ideal_reflectance"});
+    const Member& r = c.require(node, "coating", "ideal_reflectance", " (a reflectance or [[nm, R], ...])");
+    IdealReflectance& ideal = coating.ideal.emplace();
+    const std::string path = "coating.ideal_reflectance";
+    if (r.value.isNumber()) {
+        ideal.wavelengthsNm.push_back(550.0);
+        ideal.reflectances.push_back(c.numberIn(r.value, path, 0.0, 1.0, ""));
+        return coating;
+    }
+    if (r.value.kind != Node::Kind::Array || r.value.items.empty())
+        c.fail(r.value.line, path, "must be a reflectance in [0, 1] or a non-empty array of [nm, R] points, got " +
+                                       describe(r.value));
+    for (std::size_t i = 0; i < r.value.items.size(); ++i) {
+        const std::string point = index(path, i);
+        const std::vector<Node>& pair = c.numbers(r.value.items[i], point, 2, "[wavelength_nm, reflectance]");
+        const double wavelength = c.numberIn(pair[0], point, 0.0, 1e5, "nm", true);
+        if (!ideal.wavelengthsNm.empty() && wavelength <= ideal.wavelengthsNm.back())
+            c.fail(pair[0].line, point, "wavelengths must increase");
+        ideal.wavelengthsNm.push_back(wavelength);
+        ideal.reflectances.push_back(c.numberIn(pair[1], point, 0.0, 1.0, ""));
+    }
+    return coating;
+}
+
 }  // namespace
 
 Scene parseSceneText(std::string_view text, const std::string& fileName, const std::string& baseDir) {
@@ -171,7 +207,8 @@ Scene parseSceneText(std::string_view text, const std::string& fileName, const s
     Scene scene;
     scene.sourceFile = fileName;
     c.object(root, "",
-             {"description", "lens", "zoom", "focus_distance_mm", "f_number", "sensor", "lights", "render", "scattering"});
+             {"description", "lens", "zoom", "focus_distance_mm", "f_number", "coating", "sensor", "lights", "render",
+              "scattering"});
 
     if (const Member* m = Checker::find(root, "description")) scene.description = c.string(m->value, "description");
 
@@ -210,6 +247,11 @@ Scene parseSceneText(std::string_view text, const std::string& fileName, const s
         scene.lensState.fNumber = c.numberIn(m->value, "f_number", 0.5, 128.0, "");
     }
 
+    if (const Member* m = Checker::find(root, "coating")) {
+        scene.lines.coating = m->value.line;
+        scene.coating = parseCoating(c, m->value);
+    }
+
     if (const Member* m = Checker::find(root, "sensor")) parseSensor(c, m->value, scene);
 
     const Member& lights = c.require(root, "", "lights", " (an array with at least one light)");
@@ -246,6 +288,22 @@ Scene defaultScene() { return parseSceneText(kDefaultScene, "<default scene>", "
 
 LensSystem buildSceneLens(const Scene& scene) {
     LensPrescription prescription = loadLens(scene.lens);  // its own errors name the lens file
+    if (scene.coating) {
+        // The scene's coating goes on every air–glass surface, replacing the lens's choices.
+        std::string name = scene.coating->name;
+        if (scene.coating->ideal) {
+            name = "(scene ideal)";
+            std::erase_if(prescription.coatings, [&](const Coating& c) { return c.name == name; });
+            prescription.coatings.push_back(Coating{name, {}, scene.coating->ideal});
+        } else if (!prescription.findCoating(name)) {
+            std::string known = "none, mgf2";
+            for (const Coating& c : prescription.coatings) known += ", " + c.name;
+            throw InputError(scene.sourceFile, scene.lines.coating,
+                             "coating: the lens has no coating '" + name + "' (known: " + known + ")");
+        }
+        prescription.defaultCoating = name;
+        for (PrescriptionRow& row : prescription.rows) row.coatingName.reset();
+    }
     const glm::dvec2 sensor = sensorSizeMm(scene, prescription.sensor);  // the scene's sensor wins
     prescription.sensor.widthMm = sensor.x;
     prescription.sensor.heightMm = sensor.y;

@@ -85,8 +85,15 @@ struct ScatteringSettings {
 // 1-based lines in the scene file of the values that can only be checked once the lens is loaded
 // (0 when the key is absent), so that those errors still point into the scene.
 struct SceneLines {
-    int lens = 0, zoom = 0, focus = 0, fNumber = 0, sensor = 0, resolution = 0;
+    int lens = 0, zoom = 0, focus = 0, fNumber = 0, sensor = 0, resolution = 0, coating = 0;
     std::vector<int> lights;  // the line of each light's opening brace
+};
+
+// The scene's `coating`: replaces the lens's coating on every air–glass surface. Either a coating
+// name the lens knows (its own, or `none`, `mgf2`) or an ideal reflectance.
+struct SceneCoating {
+    std::string name;                       // empty when `ideal` is set
+    std::optional<IdealReflectance> ideal;
 };
 
 struct Scene {
@@ -100,6 +107,7 @@ struct Scene {
     SensorSettings sensor;
     RenderSettings render;
     ScatteringSettings scattering;
+    std::optional<SceneCoating> coating;
     SceneLines lines;
 };
 

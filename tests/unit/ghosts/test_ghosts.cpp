@@ -1,6 +1,7 @@
 // Ghost enumeration and analysis: counts, paraxial ghost focus against an independent
 // ray-transfer-matrix computation, exact throughput ratios, pruning.
 #include <cmath>
+#include <numbers>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -133,6 +134,37 @@ TEST(Ghosts, NoReflectionPathIsTheLensItself) {
 
 // A plate at normal incidence: the ghost's rays are the direct rays shifted by zero, so the live
 // regions coincide and ghost/direct = R² exactly.
+// An ideal coating of reflectance R on a plate of a glass whose own Fresnel reflectance is twice
+// as large: the ghost carries R² of the direct light at any angle (an ideal coating does not
+// depend on the angle) and, with a table, at any wavelength the table's R(λ)².
+TEST(GhostAnalysis, IdealCoatingGivesReflectanceSquaredOnAPlate) {
+    const std::string text = R"(name plate
+focal_length_mm 1
+sensor width_mm=200 height_mm=200 reflectance=0
+coating ar ideal R=0.04
+coating table ideal 450:0.02 650:0.005
+default_coating ar
+surfaces
+ stop  1    air     10
+ inf   5    n=1.8   40
+ inf   10   air     40  coating=table
+)";
+    const LensSystem lens = LensSystem::build(parseLensText(text, "plate.lens"));
+    for (double fieldDeg : {0.0, 10.0}) {
+        for (double wavelength : {450.0, 550.0, 600.0}) {
+            GhostAnalysisOptions options;
+            options.wavelengthNm = wavelength;
+            const double t = std::tan(fieldDeg * std::numbers::pi / 180.0);
+            const GhostReport report = analyseGhosts(lens, glm::normalize(glm::dvec3(t, 0.0, 1.0)), options);
+            const GhostEstimate& plate = report.ghosts.front();
+            ASSERT_EQ(plate.path.reflections, (std::vector<int>{2, 1}));
+            const double rBack = 0.02 + (wavelength - 450.0) / 200.0 * (0.005 - 0.02);
+            EXPECT_NEAR(plate.powerFraction / report.direct.powerFraction, 0.04 * rBack, 1e-12)
+                << fieldDeg << " deg, " << wavelength << " nm";
+        }
+    }
+}
+
 TEST(GhostAnalysis, PlateGhostToDirectRatioIsReflectanceSquared) {
     const std::string text = R"(name plate
 focal_length_mm 1

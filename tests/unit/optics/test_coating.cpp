@@ -5,6 +5,7 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
+#include "flare/core/Error.h"
 #include "flare/optics/Coating.h"
 #include "flare/optics/Glass.h"
 #include "flare/optics/LensFile.h"
@@ -101,6 +102,75 @@ TEST(Coating, SameReflectanceFromBothSidesOfALosslessStack) {
         EXPECT_NEAR(fromAir.rs, fromGlass.rs, 1e-13);
         EXPECT_NEAR(fromAir.rp, fromGlass.rp, 1e-13);
     }
+}
+
+// An ideal coating: the given reflectance at every angle and polarisation from either side, the
+// rest transmitted; beyond the critical angle the interface still reflects totally.
+TEST(Coating, IdealFlatReflectanceAtEveryAngleAndSide) {
+    const Coating ideal = Coating::idealFlat("i", 0.04);
+    for (int i = 0; i < 90; i += 3) {
+        for (bool fromAir : {true, false}) {
+            const FresnelTerms f = thinFilmResponse(ideal, std::cos(i * kDeg), 1.0, 1.8, fromAir, 480.0);
+            const double sinGlass = fromAir ? 0.0 : std::sin(i * kDeg);
+            if (sinGlass * 1.8 >= 1.0) {
+                EXPECT_TRUE(f.totalInternalReflection) << i;
+                EXPECT_EQ(f.reflectance(), 1.0);
+                continue;
+            }
+            EXPECT_EQ(f.rs, 0.04);
+            EXPECT_EQ(f.rp, 0.04);
+            EXPECT_EQ(f.transmittance(), 0.96);
+            const double n0 = fromAir ? 1.0 : 1.8, n1 = fromAir ? 1.8 : 1.0;
+            const double sinT = n0 * std::sin(i * kDeg) / n1;
+            EXPECT_NEAR(f.cosThetaT, std::sqrt(1.0 - sinT * sinT), 1e-15);
+        }
+    }
+}
+
+TEST(Coating, IdealTableInterpolatesLinearlyAndHoldsItsEnds) {
+    const IdealReflectance table{{450.0, 550.0, 650.0}, {0.02, 0.004, 0.012}};
+    EXPECT_EQ(table.at(400.0), 0.02);
+    EXPECT_EQ(table.at(450.0), 0.02);
+    EXPECT_NEAR(table.at(500.0), 0.012, 1e-15);
+    EXPECT_EQ(table.at(550.0), 0.004);
+    EXPECT_NEAR(table.at(625.0), 0.010, 1e-15);
+    EXPECT_EQ(table.at(700.0), 0.012);
+    const Coating c{"t", {}, table};
+    EXPECT_NEAR(thinFilmResponse(c, 0.7, 1.0, 1.6, true, 600.0).reflectance(), 0.008, 1e-15);
+}
+
+TEST(Coating, IdealCoatingsInLensFiles) {
+    const LensPrescription p = parseLensText(R"(name ideal
+focal_length_mm 100
+coating flat ideal R=0.04
+coating tab ideal 450:0.02 550:0.004 650:0.012
+default_coating flat
+surfaces
+  50   5    N-BK7  10
+ -50   5    air    10  coating=tab
+ stop  auto air    8
+)", "ideal.lens");
+    const LensSystem lens = LensSystem::build(p);
+    ASSERT_NE(lens.coating(0), nullptr);
+    ASSERT_TRUE(lens.coating(0)->ideal.has_value());
+    EXPECT_EQ(lens.coating(0)->ideal->at(700.0), 0.04);
+    ASSERT_NE(lens.coating(1), nullptr);
+    EXPECT_EQ(lens.coating(1)->ideal->at(500.0), 0.012);
+    auto error = [](const std::string& line) {
+        try {
+            parseLensText("name x\nfocal_length_mm 100\n" + line + "\nsurfaces\n 50 5 N-BK7 10\n stop 1 air 8\n -50 auto air 10\n",
+                          "bad.lens");
+        } catch (const InputError& e) {
+            EXPECT_EQ(e.line(), 3) << e.what();
+            return std::string(e.problem());
+        }
+        ADD_FAILURE() << line;
+        return std::string();
+    };
+    EXPECT_NE(error("coating c ideal R=1.2").find("[0, 1]"), std::string::npos);
+    EXPECT_NE(error("coating c ideal 550:0.01 450:0.02").find("increase"), std::string::npos);
+    EXPECT_NE(error("coating c ideal R=0.01 550:0.01").find("not both"), std::string::npos);
+    EXPECT_NE(error("coating c ideal 0.04").find("wavelength_nm:R"), std::string::npos);
 }
 
 }  // namespace

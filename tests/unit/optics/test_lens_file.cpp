@@ -95,6 +95,16 @@ TEST(LensFile, PbrtImporterReadsDiametersAndConstantIndices) {
     EXPECT_TRUE(p.rows[1].mediumAfter.isAir());
 }
 
+// Glasses beyond the built-in table come from the shipped vendor catalogues (lenses/glass).
+TEST(LensFile, GlassesFromTheShippedCatalogues) {
+    const LensPrescription p = parseLensText(lens("40 5 J-LASF016 10\n-200 2 air 10\nstop 2 air 8\n-60 3 HOYA:FCD1 10\n-80 auto air 10\n"),
+                                             "good.lens");
+    EXPECT_EQ(p.rows[0].mediumAfter.describe(), "J-LASF016 (NIKON-HIKARI)");
+    EXPECT_EQ(p.rows[3].mediumAfter.describe(), "FCD1 (HOYA)");
+    EXPECT_NEAR(p.rows[3].mediumAfter.nd(), 1.49700, 1e-5);
+    expectError(lens("40 5 HWS1 10\nstop 2 air 8\n-60 auto air 10\n"), 4, "not made for the visible");
+}
+
 TEST(LensFileErrors, NonNumericField) { expectError(lens("40 5x N-BK7 10\nstop 2 air 8\n-60 auto air 10\n"), 4, "not a number"); }
 
 TEST(LensFileErrors, UnknownGlass) { expectError(lens("40 5 UNOBTAINIUM 10\nstop 2 air 8\n-60 auto air 10\n"), 4, "unknown glass"); }

@@ -176,6 +176,34 @@ TEST(Scene, DefaultsAndOptionalForms) {
     EXPECT_EQ(t.render.seed, 18446744073709551615u);
 }
 
+// The scene's coating replaces the lens's on every air–glass surface (the double Gauss is coated
+// with mgf2 by its file).
+TEST(Scene, CoatingReplacesTheLensCoatings) {
+    const LensSystem flat = buildSceneLens(parseSceneText(scene(kSun, R"(  "coating": { "ideal_reflectance": 0.01 })"), "c.json", ""));
+    const LensSystem table = buildSceneLens(parseSceneText(
+        scene(kSun, R"(  "coating": { "ideal_reflectance": [[450, 0.02], [650, 0.01]] })"), "c.json", ""));
+    const LensSystem bare = buildSceneLens(parseSceneText(scene(kSun, R"(  "coating": "none")"), "c.json", ""));
+    int coated = 0;
+    for (int i = 0; i < flat.surfaceCount(); ++i) {
+        EXPECT_EQ(bare.coating(i), nullptr);
+        if (!flat.coating(i)) continue;
+        ++coated;
+        EXPECT_EQ(flat.coating(i)->ideal->at(500.0), 0.01);
+        EXPECT_NEAR(table.coating(i)->ideal->at(550.0), 0.015, 1e-15);
+    }
+    EXPECT_EQ(coated, 8);  // the double Gauss: 10 interfaces, 2 of them cemented
+    expectError(scene(kSun, R"(  "coating": { "ideal_reflectance": 1.5 })"), 6, {"coating.ideal_reflectance"});
+    expectError(scene(kSun, R"(  "coating": { "ideal_reflectance": [[550, 0.01], [450, 0.02]] })"), 6, {"increase"});
+    expectError(scene(kSun, R"(  "coating": 3)"), 6, {"coating", "ideal_reflectance"});
+    try {
+        buildSceneLens(parseSceneText(scene(kSun, R"(  "coating": "gold")"), "c.json", ""));
+        ADD_FAILURE() << "unknown coating accepted";
+    } catch (const InputError& e) {
+        EXPECT_EQ(e.line(), 6);
+        EXPECT_NE(e.problem().find("no coating 'gold'"), std::string::npos) << e.what();
+    }
+}
+
 TEST(Scene, LensPathIsRelativeToTheSceneFile) {
     const Scene s = loadScene(test::sourcePath("tests/data/scenes/relative-lens.json"));
     EXPECT_EQ(std::filesystem::path(s.lens).lexically_normal(),

@@ -1,0 +1,18 @@
+// Text files written by other programs: Zemax writes its .zmx and .agf files either as UTF-16
+// little-endian with a byte-order mark or as 8-bit text (ASCII or UTF-8, with or without a BOM).
+// Readers decode the bytes once and parse UTF-8 lines.
+#pragma once
+
+#include <string>
+#include <string_view>
+
+namespace flare {
+
+// The bytes as UTF-8: UTF-16 LE or BE with a BOM is transcoded (an unpaired surrogate becomes
+// U+FFFD), a UTF-8 BOM is dropped, anything else is returned as it is. Line ends are left alone.
+std::string decodeText(std::string_view bytes);
+
+// Reads a whole file as bytes; raises InputError(path, 0, ...) naming `what` when it cannot be read.
+std::string readFileBytes(const std::string& path, const std::string& what);
+
+}  // namespace flare
