@@ -3,10 +3,11 @@
 
 src/flare/ is split into stage folders, lowest first:
 
-    core -> optics -> ghosts -> photons -> film -> render -> scene
+    core -> optics -> ghosts -> photons -> film -> wave -> render -> scene
 
 A file may include headers of its own stage and of the stages below it, never above: a scene
-builds render options, a render drives photons onto a film, photons use the ghost analysis to
+builds render options, a render drives photons onto a film and diffracts the light's own image
+(wave: the starburst, from the pupil that the optics trace), photons use the ghost analysis to
 guide their emission, ghosts are traced through optics, and everything uses core. Every source
 file must sit in one of these folders (none directly in src/flare/).
 
@@ -18,7 +19,7 @@ import re
 import sys
 import tempfile
 
-STAGES = ["core", "optics", "ghosts", "photons", "film", "render", "scene"]
+STAGES = ["core", "optics", "ghosts", "photons", "film", "wave", "render", "scene"]
 INCLUDE = re.compile(r'^\s*#\s*include\s+"flare/([^"/]+)/([^"]+)"', re.MULTILINE)
 SOURCE_SUFFIXES = (".h", ".cpp", ".inc")
 

@@ -1,0 +1,174 @@
+#include "flare/wave/ApertureTransform.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include <glm/geometric.hpp>
+
+namespace flare {
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr int kSmoothBins = 2048;
+// A short run's length is spread over the normal angles it stands for (half the turn to each
+// neighbour), but never wider than this: next to a blade's corner the turn is the corner's.
+constexpr double kMaxSmoothSpreadRad = 2.0 * kPi / 180.0;
+
+double sinc(double x) { return std::abs(x) < 1e-4 ? 1.0 - x * x / 6.0 : std::sin(x) / x; }
+
+double cross(const glm::dvec2& a, const glm::dvec2& b) { return a.x * b.y - a.y * b.x; }
+
+double wrapAngle(double a) {  // to (−π, π]
+    a = std::fmod(a, 2.0 * kPi);
+    if (a <= -kPi) a += 2.0 * kPi;
+    if (a > kPi) a -= 2.0 * kPi;
+    return a;
+}
+
+ApertureEdge edgeBetween(const glm::dvec2& a, const glm::dvec2& b) {
+    ApertureEdge e;
+    e.lengthMm = glm::length(b - a);
+    e.tangent = (b - a) / e.lengthMm;
+    e.normal = {e.tangent.y, -e.tangent.x};  // outward for a counter-clockwise outline
+    e.midpointMm = 0.5 * (a + b);
+    return e;
+}
+
+// Largest distance of the points strictly between i and j (indices mod n) from the chord i→j.
+double sagitta(const std::vector<glm::dvec2>& v, size_t i, size_t j) {
+    const size_t n = v.size();
+    const glm::dvec2 chord = v[j % n] - v[i % n];
+    const double length = glm::length(chord);
+    double worst = 0.0;
+    for (size_t m = i + 1; m < j; ++m) worst = std::max(worst, std::abs(cross(chord, v[m % n] - v[i % n])) / length);
+    return worst;
+}
+
+}  // namespace
+
+std::vector<glm::dvec2> circleOutline(double radiusMm, int segments) {
+    std::vector<glm::dvec2> outline(static_cast<size_t>(segments));
+    for (int i = 0; i < segments; ++i) {
+        const double phi = 2.0 * kPi * i / segments;
+        outline[i] = radiusMm * glm::dvec2(std::cos(phi), std::sin(phi));
+    }
+    return outline;
+}
+
+ApertureTransform::ApertureTransform(std::vector<glm::dvec2> outline, const ApertureTransformOptions& options) {
+    if (outline.size() < 3) throw std::invalid_argument("aperture outline needs at least 3 vertices");
+    double twiceArea = 0.0;
+    glm::dvec2 moment{0.0};
+    for (size_t i = 0; i < outline.size(); ++i) {
+        const glm::dvec2& a = outline[i];
+        const glm::dvec2& b = outline[(i + 1) % outline.size()];
+        const double c = cross(a, b);
+        twiceArea += c;
+        moment += c * (a + b);
+    }
+    if (!(std::abs(twiceArea) > 0.0) || !std::isfinite(twiceArea))
+        throw std::invalid_argument("aperture outline has no area");
+    if (twiceArea < 0.0) std::reverse(outline.begin(), outline.end());
+    areaMm2_ = 0.5 * std::abs(twiceArea);
+    centroidMm_ = moment / (3.0 * twiceArea);
+    for (glm::dvec2& p : outline) {
+        p -= centroidMm_;
+        diameterMm_ = std::max(diameterMm_, 2.0 * glm::length(p));
+    }
+
+    // Merge into straight runs, starting at the sharpest corner so that no straight edge is cut in
+    // two at the start.
+    const size_t n = outline.size();
+    size_t start = 0;
+    double sharpest = -1.0;
+    for (size_t i = 0; i < n; ++i) {
+        const glm::dvec2 in = glm::normalize(outline[i] - outline[(i + n - 1) % n]);
+        const glm::dvec2 out = glm::normalize(outline[(i + 1) % n] - outline[i]);
+        const double turn = std::abs(std::atan2(cross(in, out), glm::dot(in, out)));
+        if (turn > sharpest) sharpest = turn, start = i;
+    }
+    for (size_t i = start; i < start + n;) {
+        size_t j = i + 1;
+        while (j + 1 <= start + n && sagitta(outline, i, j + 1) <= options.straightToleranceMm) ++j;
+        runs_.push_back(edgeBetween(outline[i % n], outline[j % n]));
+        perimeterMm_ += runs_.back().lengthMm;
+        i = j;
+    }
+
+    // Long runs are spikes; the rest is spread over the normal angles it covers.
+    std::vector<double> mass(kSmoothBins, 0.0);
+    const double binRad = 2.0 * kPi / kSmoothBins;
+    const size_t runCount = runs_.size();
+    for (size_t r = 0; r < runCount; ++r) {
+        const ApertureEdge& e = runs_[r];
+        if (e.lengthMm >= options.spikeMinLengthMm) {
+            spikes_.push_back(e);
+            continue;
+        }
+        smoothLengthMm_ += e.lengthMm;
+        const double beta = std::atan2(e.normal.y, e.normal.x);
+        auto angleOf = [&](const ApertureEdge& o) { return std::atan2(o.normal.y, o.normal.x); };
+        const double before = std::min(0.5 * std::abs(wrapAngle(beta - angleOf(runs_[(r + runCount - 1) % runCount]))),
+                                       kMaxSmoothSpreadRad);
+        const double after = std::min(0.5 * std::abs(wrapAngle(angleOf(runs_[(r + 1) % runCount]) - beta)),
+                                      kMaxSmoothSpreadRad);
+        const double from = beta - before, to = beta + after;
+        if (to - from < binRad) {  // narrower than a bin: into the bins around β, linearly
+            const double x = (beta + 2.0 * kPi) / binRad - 0.5;
+            const double fl = std::floor(x);
+            const int b0 = static_cast<int>(fl);
+            mass[((b0 % kSmoothBins) + kSmoothBins) % kSmoothBins] += e.lengthMm * (1.0 - (x - fl));
+            mass[(((b0 + 1) % kSmoothBins) + kSmoothBins) % kSmoothBins] += e.lengthMm * (x - fl);
+            continue;
+        }
+        const double density = e.lengthMm / (to - from);
+        for (int b = static_cast<int>(std::floor(from / binRad)); b * binRad < to; ++b) {
+            const double overlap = std::min(to, (b + 1) * binRad) - std::max(from, b * binRad);
+            if (overlap > 0.0) mass[((b % kSmoothBins) + kSmoothBins) % kSmoothBins] += density * overlap;
+        }
+    }
+    smoothDensity_.assign(kSmoothBins, 0.0);
+    for (int b = 0; b < kSmoothBins; ++b)  // a [1 2 1]/4 filter hides the bins' quantisation
+        smoothDensity_[b] = (mass[(b + kSmoothBins - 1) % kSmoothBins] + 2.0 * mass[b] + mass[(b + 1) % kSmoothBins]) /
+                            (4.0 * binRad);
+}
+
+std::complex<double> ApertureTransform::transform(const glm::dvec2& k) const {
+    const double kk = glm::dot(k, k);
+    if (kk == 0.0) return areaMm2_;
+    std::complex<double> sum = 0.0;
+    for (const ApertureEdge& e : runs_) {
+        const double amplitude = glm::dot(k, e.normal) * e.lengthMm * sinc(0.5 * glm::dot(k, e.tangent) * e.lengthMm);
+        const double phase = -glm::dot(k, e.midpointMm);
+        sum += amplitude * std::complex<double>(std::cos(phase), std::sin(phase));
+    }
+    return std::complex<double>(0.0, 1.0 / kk) * sum;
+}
+
+double ApertureTransform::smoothDensityMmPerRad(double beta) const {
+    const double x = wrapAngle(beta) / (2.0 * kPi / kSmoothBins) - 0.5 + kSmoothBins;
+    const double fl = std::floor(x);
+    const int b0 = static_cast<int>(fl) % kSmoothBins;
+    const double f = x - fl;
+    return (1.0 - f) * smoothDensity_[b0] + f * smoothDensity_[(b0 + 1) % kSmoothBins];
+}
+
+double ApertureTransform::incoherentIntensity(const glm::dvec2& k) const {
+    const double kk = glm::dot(k, k);
+    if (kk == 0.0) return areaMm2_ * areaMm2_;
+    double spikes = 0.0;
+    for (const ApertureEdge& e : spikes_) {
+        const double kn = glm::dot(k, e.normal);
+        const double s = sinc(0.5 * glm::dot(k, e.tangent) * e.lengthMm);
+        spikes += kn * kn * e.lengthMm * e.lengthMm * s * s;
+    }
+    const double beta = std::atan2(k.y, k.x);
+    const double smooth = smoothDensityMmPerRad(beta) + smoothDensityMmPerRad(beta + kPi);
+    const double kNorm = std::sqrt(kk);
+    return spikes / (kk * kk) + 2.0 * kPi * smooth / (kk * kNorm);
+}
+
+}  // namespace flare

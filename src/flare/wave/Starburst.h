@@ -1,0 +1,73 @@
+// The starburst: the light's own (geometric) image convolved with the lens's diffraction PSF.
+//
+// Each light's part of the direct image (the pixels nearest its image; lights are far apart on
+// the sensor) is cropped to the square holding all but 10⁻⁴ of its energy, and convolved with its
+// PSF (DiffractionPsf) in two parts that add up to the whole PSF:
+//   near: the PSF on a window around the point image, tapered to zero at the window's edge,
+//         convolved with the crop exactly (FFT; KissFFT);
+//   far:  the rest (the taper's complement), out to every pixel of the frame, from the PSF's
+//         fringe-averaged asymptote: each straight edge's spike is a line whose energy falls as
+//         1/r², so the crop convolved with it is, far from the crop, the line's envelope times the
+//         crop's energy projected across the line (convolved with the spike's own sinc² profile
+//         and the pixel's width); the smooth halo times the crop's energy.
+// The window is several crop radii wide, so the far part's envelope is nearly constant across the
+// crop. The PSF integrates to 1, so the starburst holds the crop's energy minus what falls
+// outside the frame, which is reported. Pixels of the direct image outside every crop stay as
+// they are (undiffracted): at most 10⁻⁴ of a light's energy.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "flare/core/Spectrum.h"
+#include "flare/optics/LensSystem.h"
+#include "flare/wave/ApertureTransform.h"
+#include "flare/wave/PupilOutline.h"
+
+namespace flare {
+
+struct StarburstOptions {
+    int wavelengths = 32;           // spectral quadrature of each light's PSF
+    double cropEnergy = 1.0 - 1e-4; // share of a light's direct image that is diffracted
+    int maxCropRadiusPx = 128;
+    int minWindowPx = 32;           // half-size of the near window, at least
+    double windowPerCropRadius = 6.0;
+};
+
+// One light's diffraction, traced through the lens at the image's resolution.
+struct StarburstLight {
+    std::string name;
+    glm::dvec3 direction{0.0, 0.0, 1.0};  // of travel
+    std::vector<SpectralSample> spectrum; // the light's spectral quadrature (normalised weights)
+};
+
+struct StarburstLightReport {
+    std::string name;
+    bool diffracted = false;
+    std::string why;                 // when not
+    double pupilAreaMm2 = 0.0;
+    int spikeEdges = 0;              // straight edges of the pupil's outline: spikes 2 × this
+    double smoothOutlineShare = 0.0; // share of the outline that is curved (a halo, no spike)
+    int wavelengths = 0;
+    int cropRadiusPx = 0, windowRadiusPx = 0;
+    double coherentRadiusPx = 0.0;
+    double parsevalError = 0.0;      // the PSF model's energy before normalisation, minus 1
+    double directEnergyY = 0.0;      // of this light's part of the direct image
+    double diffractedShare = 0.0;    // of it, in the crop
+    double outsideFrameShare = 0.0;  // of the diffracted energy, landing outside the frame
+    double seconds = 0.0;
+};
+
+struct StarburstImage {
+    std::vector<float> xyz;          // the starburst layer (W/m², XYZ), as the direct layer
+    std::vector<StarburstLightReport> lights;
+};
+
+// `directXyz`: the direct layer (widthPx × heightPx × XYZ, camera orientation, as the preview and
+// the render write it). The lens's sensor gives the pixel size.
+StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>& directXyz, int widthPx, int heightPx,
+                               const std::vector<StarburstLight>& lights, const StarburstOptions& options = {});
+
+}  // namespace flare
