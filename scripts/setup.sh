@@ -16,7 +16,11 @@ if [ "${1:-}" = "--bench" ]; then bench=1; shift; fi
 packages=(
   build-essential cmake ninja-build pkg-config python3
   libglm-dev libopenexr-dev libopenvdb-dev libtbb-dev libboost-iostreams-dev libblosc-dev
-  nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev libpng-dev libkissfft-dev
+  nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev libpng-dev
+  # the starburst's FFT (src/flare/wave)
+  libkissfft-dev
+  # the Python module (src/python, docs/python.md), for Debian's /usr/bin/python3
+  pybind11-dev python3-dev python3-numpy
 )
 # Only for a fuzz build: clang with its sanitizer and libFuzzer runtimes (16: the engine captures
 # structured bindings in lambdas, which clang supports from 16 on; Debian 12's default is 14).

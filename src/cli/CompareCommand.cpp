@@ -9,7 +9,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include "flare/core/Error.h"
 #include "flare/film/ImageCompare.h"
 #include "flare/film/ImageIO.h"
 
@@ -23,42 +22,12 @@ struct CompareCommandOptions {
     bool json = false;
 };
 
-std::string layerDisplayName(const std::string& name) { return name.empty() ? "(main)" : name; }
-
-// The requested layer of `path`. A missing layer is the user's error (a typo, or a file written
-// without --layers), so the message lists what the file does have.
-ImageLayer readLayer(const std::string& path, const std::string& name) {
-    std::vector<ImageLayer> layers = readExr(path);
-    for (ImageLayer& layer : layers)
-        if (layer.name == name) return std::move(layer);
-    std::string available;
-    for (const ImageLayer& layer : layers) available += (available.empty() ? "" : ", ") + layerDisplayName(layer.name);
-    const std::string wanted = name.empty() ? std::string("no main RGB layer (R, G, B)") : "no layer \"" + name + "\"";
-    throw InputError(path, 0, wanted + "; layers in the file: " + available);
-}
-
-nlohmann::json orNull(const std::optional<double>& value) {
-    return value ? nlohmann::json(*value) : nlohmann::json(nullptr);
-}
-
 nlohmann::json comparisonJson(const CompareCommandOptions& o, const ImageComparison& c) {
-    nlohmann::json rgb = nlohmann::json::array();
-    for (const auto& value : c.relL2Rgb) rgb.push_back(orNull(value));
-    return {
-        {"a", o.a},
-        {"b", o.b},
-        {"layer", o.layer},
-        {"width", c.width},
-        {"height", c.height},
-        {"pixels", c.pixels},
-        {"rel_l2", orNull(c.relL2)},
-        {"rel_mse", orNull(c.relMse)},
-        {"power_ratio", orNull(c.powerRatio)},
-        {"max_abs_diff", c.maxAbsDiff},
-        {"rel_l2_rgb", rgb},
-        {"sum_y_a", c.sumYA},
-        {"sum_y_b", c.sumYB},
-    };
+    nlohmann::json j = imageComparisonJson(c);
+    j["a"] = o.a;
+    j["b"] = o.b;
+    j["layer"] = o.layer;
+    return j;
 }
 
 // Never prints NaN: an undefined metric (zero reference) says so and why.
@@ -75,7 +44,7 @@ void printComparison(const CompareCommandOptions& o, const ImageComparison& c) {
     const auto line = [](const char* key, const std::string& value) { std::printf("%-14s%s\n", key, value.c_str()); };
     line("a", o.a);
     line("b", o.b + " (reference)");
-    line("layer", layerDisplayName(o.layer));
+    line("layer", o.layer.empty() ? "(main)" : o.layer);
     line("size", std::to_string(c.width) + " x " + std::to_string(c.height) + " (" + std::to_string(c.pixels) +
                      " pixels)");
     line("rel_l2", formatMetric(c.relL2, kZeroReference));
@@ -87,8 +56,8 @@ void printComparison(const CompareCommandOptions& o, const ImageComparison& c) {
 }
 
 void run(const CompareCommandOptions& o) {
-    const ImageLayer a = readLayer(o.a, o.layer);
-    const ImageLayer b = readLayer(o.b, o.layer);
+    const ImageLayer a = readExrLayer(o.a, o.layer);
+    const ImageLayer b = readExrLayer(o.b, o.layer);
     const ImageComparison comparison = compareImages(a, b, o.a, o.b);
     if (o.json) std::cout << comparisonJson(o, comparison).dump(2) << "\n";
     else printComparison(o, comparison);

@@ -1,19 +1,16 @@
 #include "GhostCommands.h"
 
-#include <cmath>
 #include <cstdio>
-#include <numbers>
 #include <iostream>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "LensOptions.h"
 #include "flare/core/Error.h"
 #include "flare/ghosts/GhostAnalysis.h"
+#include "flare/ghosts/GhostTable.h"
 #include "flare/optics/LensSystem.h"
 #include "flare/scene/Scene.h"
 
@@ -32,31 +29,6 @@ struct GhostOptions {
     bool csv = false;
     bool noSensorGhosts = false;
 };
-
-nlohmann::json optionalNumber(const std::optional<double>& v) {
-    return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
-}
-
-nlohmann::json ghostJson(const GhostEstimate& g) {
-    nlohmann::json j;
-    j["surfaces"] = g.path.surfaceNumbers();
-    j["label"] = g.path.label();
-    j["ghost_efl_mm"] = optionalNumber(g.paraxial.eflMm);
-    j["ghost_focus_mm"] = optionalNumber(g.paraxial.focusFromSensorMm);
-    j["internal_focus"] = g.paraxial.internalFocus;
-    j["marginal_heights_mm"] = g.paraxial.marginalHeightsMm;
-    j["power_fraction"] = g.powerFraction;
-    j["footprint_mm"] = {{"x_min", g.footprintMinMm.x}, {"y_min", g.footprintMinMm.y},
-                         {"x_max", g.footprintMaxMm.x}, {"y_max", g.footprintMaxMm.y}};
-    j["peak_irradiance_ratio"] = g.peakIrradianceRatio;
-    j["live_pupil_cells"] = g.pupil.liveCount();
-    j["pruned"] = g.pruned;
-    // false: the analysis ran out of its ray budget on this path and the estimate is from the
-    // part of the region it found (only on lenses far from the shipped ones).
-    j["resolved"] = g.resolved;
-    j["traced_rays"] = g.tracedRays;
-    return j;
-}
 
 std::string surfacesText(const GhostEstimate& g) {
     std::string text;
@@ -93,9 +65,9 @@ void run(const GhostOptions& o) {
     const LensSystem& lens = *built;
     if (!o.fieldDeg.empty())
         direction = directionFromFieldDeg(o.fieldDeg[0], o.fieldDeg.size() > 1 ? o.fieldDeg[1] : 0.0);
-    // Report the field as the angles at which the light is seen (the inverse of directionFromFieldDeg).
-    const double fieldX = std::atan(-direction.x / direction.z) * 180.0 / std::numbers::pi;
-    const double fieldY = std::atan(-direction.y / direction.z) * 180.0 / std::numbers::pi;
+    // Report the field as the angles at which the light is seen.
+    const glm::dvec2 fieldDeg = fieldDegFromDirection(direction);
+    const double fieldX = fieldDeg.x, fieldY = fieldDeg.y;
     const GhostReport report = analyseGhosts(lens, direction, options);
 
     std::vector<const GhostEstimate*> shown;
@@ -103,21 +75,7 @@ void run(const GhostOptions& o) {
         if (o.all || !g.pruned) shown.push_back(&g);
 
     if (o.json) {
-        nlohmann::json j;
-        j["lens"] = lens.name();
-        j["field_deg"] = {fieldX, fieldY};
-        j["wavelength_nm"] = o.wavelengthNm;
-        j["order"] = o.order;
-        j["surfaces"] = lens.surfaceCount();
-        j["sensor_surface_number"] = lens.surfaceCount() + 1;
-        j["enumerated"] = report.ghosts.size();
-        j["direct_power_fraction"] = report.direct.powerFraction;
-        j["total_ghost_power_fraction"] = report.totalGhostPowerFraction;
-        j["pruned_count"] = report.prunedCount;
-        j["pruned_power_fraction"] = report.prunedPowerFraction;
-        j["ghosts"] = nlohmann::json::array();
-        for (const GhostEstimate* g : shown) j["ghosts"].push_back(ghostJson(*g));
-        std::cout << j.dump(2) << "\n";
+        std::cout << ghostTableJson(lens, direction, options, report, o.all).dump(2) << "\n";
         return;
     }
     if (o.csv) {

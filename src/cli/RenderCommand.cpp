@@ -20,7 +20,7 @@
 #include "flare/film/ImageIO.h"
 #include "flare/render/Render.h"
 #include "flare/scene/Scene.h"
-#include "flare/scene/SceneScattering.h"
+#include "flare/scene/SceneRender.h"
 
 namespace flare::cli {
 
@@ -157,10 +157,6 @@ nlohmann::json reportJson(const Renderer& renderer, const Scene& scene, const Le
     return j;
 }
 
-// The error estimate of a render with fewer passes than this is too rough to stop on (its
-// variance estimate has passes − 1 degrees of freedom).
-constexpr int kMinPassesToStop = 8;
-
 // The share of the work done, whichever limit comes first: the photon count, the time, or the
 // target error (whose square falls as one over the passes).
 double progressFraction(const Renderer& renderer, std::int64_t photonLimit, double timeLimitS, double targetError,
@@ -205,38 +201,23 @@ int run(const RenderCommandOptions& o) {
     const Scene scene = o.scene.empty() ? defaultScene() : loadScene(o.scene);
     const LensSystem lens = buildSceneLens(scene);
 
-    RenderOptions options;
-    options.mode = o.mode == "naive"     ? RenderOptions::Mode::Naive
-                   : o.mode == "photons" ? RenderOptions::Mode::GuidedPhotons
-                                         : RenderOptions::Mode::Guided;
-    options.seed = o.seed >= 0 ? static_cast<std::uint64_t>(o.seed) : scene.render.seed;
-    options.maxBounces = o.maxBounces >= -1 ? o.maxBounces : scene.render.maxBounces;
-    options.perGhostLayers = o.layers;
-    // The ghosts are the order-2 paths; a scene's ghost_order 4 asks for the order-4 chains to be
-    // guided as well (in the `higher` layer).
-    options.analysis.order = 2;
-    options.higherOrder = o.higherOrder == "on" || (o.higherOrder == "auto" && scene.render.ghostOrder == 4)
-                              ? RenderOptions::HigherOrder::On
-                          : o.higherOrder == "off" ? RenderOptions::HigherOrder::Off
-                                                   : RenderOptions::HigherOrder::Auto;
-    options.analysis.includeSensor = scene.render.includeSensorGhosts;
-    options.analysis.keepShare = scene.render.pruneKeepShare;
-    options.analysis.relativeThreshold = scene.render.pruneRelativeThreshold;
-    applySceneScattering(scene, lens, options);
-    if (o.interiorAlbedo >= 0.0) {
-        options.materials.housingAlbedo = options.materials.edgeAlbedo = options.materials.irisAlbedo = o.interiorAlbedo;
-        options.materials.housingGlossy = options.materials.edgeGlossy = options.materials.irisGlossy = 0.0;
-    }
-    options.film.widthPx = scene.sensor.widthPx;
-    options.film.heightPx = scene.sensor.heightPx;
-    options.film.widthMm = lens.sensor().widthMm;
-    options.film.heightMm = lens.sensor().heightMm;
-    options.film.kernel = o.kernel == "progressive" ? FilmSettings::Kernel::Progressive
-                          : o.kernel == "adaptive"  ? FilmSettings::Kernel::Adaptive
-                                                    : FilmSettings::Kernel::Fixed;
-    options.film.radiusPx = o.radiusPx;
-    options.smoothNeighbours = o.smoothNeighbours;
-    if (o.kernel == "progressive" && o.radiusPx == 1.0) options.film.radiusPx = 4.0;
+    SceneRenderOverrides overrides;
+    overrides.mode = o.mode == "naive"     ? RenderOptions::Mode::Naive
+                     : o.mode == "photons" ? RenderOptions::Mode::GuidedPhotons
+                                           : RenderOptions::Mode::Guided;
+    if (o.seed >= 0) overrides.seed = static_cast<std::uint64_t>(o.seed);
+    if (o.maxBounces >= -1) overrides.maxBounces = o.maxBounces;
+    overrides.perGhostLayers = o.layers;
+    overrides.higherOrder = o.higherOrder == "on"    ? RenderOptions::HigherOrder::On
+                            : o.higherOrder == "off" ? RenderOptions::HigherOrder::Off
+                                                     : RenderOptions::HigherOrder::Auto;
+    overrides.kernel = o.kernel == "progressive" ? FilmSettings::Kernel::Progressive
+                       : o.kernel == "adaptive"  ? FilmSettings::Kernel::Adaptive
+                                                 : FilmSettings::Kernel::Fixed;
+    overrides.radiusPx = o.radiusPx;
+    overrides.smoothNeighbours = o.smoothNeighbours;
+    if (o.interiorAlbedo >= 0.0) overrides.interiorAlbedo = o.interiorAlbedo;
+    const RenderOptions options = sceneRenderOptions(scene, lens, overrides);
 
     Renderer renderer(lens, scene.lights, options);
     const std::string checkpoint = o.checkpoint.empty() ? o.exr + ".checkpoint" : o.checkpoint;
@@ -247,36 +228,23 @@ int run(const RenderCommandOptions& o) {
                          static_cast<long long>(renderer.statistics().photons));
     }
 
-    // Limits: the target error (the default), the time and the photon count, whichever is reached
-    // first; without --time or --photons, the scene's photon count is the limit (so that a target
-    // the scene cannot reach still ends).
-    const bool timed = o.timeS > 0.0;
-    const std::int64_t photonLimit = o.photons > 0 ? o.photons : (timed ? 0 : scene.render.photons);
+    const RenderStopRule stop = RenderStopRule::make(scene, options, o.photons > 0 ? o.photons : 0, o.timeS, o.targetError);
     const std::int64_t perPass = options.photonsPerPass();
-    // At least two passes, so that the variance estimate exists.
-    const std::int64_t passesWanted = photonLimit > 0 ? std::max<std::int64_t>(2, (photonLimit + perPass - 1) / perPass) : 0;
 
     const auto start = std::chrono::steady_clock::now();
     auto lastCheckpoint = start;
     auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
     bool interrupted = false;
     for (;;) {
-        const int done = renderer.statistics().passes;
-        if (done >= 2) {
-            if (passesWanted > 0 && done >= passesWanted) break;
-            if (timed && elapsed() >= o.timeS) break;
-            if (o.targetError > 0.0 && done >= kMinPassesToStop &&
-                renderer.estimatedRelativeError(kGroupFlare) <= o.targetError)
-                break;
-        }
-        if (gInterrupted.load() && done == 0) {
+        if (stop.reached(renderer, elapsed())) break;
+        if (gInterrupted.load() && renderer.statistics().passes == 0) {
             std::signal(SIGINT, previous);
             std::fprintf(stderr, "interrupted before the first pass: nothing written\n");
             return 130;
         }
         renderer.runPass();
         if (!o.quiet)
-            printProgress(renderer, progressFraction(renderer, passesWanted * perPass, o.timeS, o.targetError, elapsed()),
+            printProgress(renderer, progressFraction(renderer, stop.passesWanted * perPass, o.timeS, o.targetError, elapsed()),
                           o.targetError, elapsed());
         if (gInterrupted.load()) {
             interrupted = true;
@@ -296,18 +264,7 @@ int run(const RenderCommandOptions& o) {
         return 130;
     }
 
-    const int w = options.film.widthPx, h = options.film.heightPx;
-    std::vector<float> total(static_cast<size_t>(w) * h * 3, 0.0f);
-    std::vector<ImageLayer> layers{ImageLayer{}};
-    for (int l = 0; l < static_cast<int>(renderer.layerNames().size()); ++l) {
-        const std::vector<float> xyz = renderer.layerXyz(l);
-        if (l < kFixedLayerCount)
-            for (size_t i = 0; i < xyz.size(); ++i) total[i] += xyz[i];
-        layers.push_back(rgbLayerFromXyz(renderer.layerNames()[l], xyz, w, h));
-    }
-    layers.front() = rgbLayerFromXyz("", total, w, h);
-    std::vector<float> variance = renderer.film().varianceRgb();
-    if (!variance.empty()) layers.push_back(ImageLayer{"variance", w, h, std::move(variance)});
+    const std::vector<ImageLayer> layers = renderLayers(renderer);
 
     const RenderStatistics& s = renderer.statistics();
     const std::vector<std::pair<std::string, std::string>> metadata = {

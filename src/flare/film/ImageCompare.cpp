@@ -94,4 +94,24 @@ ImageComparison compareImages(const ImageLayer& a, const ImageLayer& b, const st
     return result;
 }
 
+nlohmann::json imageComparisonJson(const ImageComparison& c) {
+    const auto orNull = [](const std::optional<double>& value) {
+        return value ? nlohmann::json(*value) : nlohmann::json(nullptr);
+    };
+    nlohmann::json rgb = nlohmann::json::array();
+    for (const auto& value : c.relL2Rgb) rgb.push_back(orNull(value));
+    return {
+        {"width", c.width},
+        {"height", c.height},
+        {"pixels", c.pixels},
+        {"rel_l2", orNull(c.relL2)},
+        {"rel_mse", orNull(c.relMse)},
+        {"power_ratio", orNull(c.powerRatio)},
+        {"max_abs_diff", c.maxAbsDiff},
+        {"rel_l2_rgb", rgb},
+        {"sum_y_a", c.sumYA},
+        {"sum_y_b", c.sumYB},
+    };
+}
+
 }  // namespace flare

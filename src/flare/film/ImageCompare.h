@@ -7,6 +7,8 @@
 #include <optional>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "flare/film/ImageIO.h"
 
 namespace flare {
@@ -49,5 +51,10 @@ struct ImageComparison {
 // 3·width·height is a programming error (std::logic_error).
 ImageComparison compareImages(const ImageLayer& a, const ImageLayer& b, const std::string& aLabel = "A",
                               const std::string& bLabel = "B");
+
+// The metrics as `flare compare --json` prints them (without the file names): width, height,
+// pixels, rel_l2, rel_mse, power_ratio, max_abs_diff, rel_l2_rgb, sum_y_a, sum_y_b; an undefined
+// metric is null.
+nlohmann::json imageComparisonJson(const ImageComparison& c);
 
 }  // namespace flare

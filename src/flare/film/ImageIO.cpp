@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <system_error>
 #include <thread>
+#include <utility>
 
 #include <Imath/ImathBox.h>
 #include <Imath/half.h>
@@ -242,6 +243,17 @@ std::vector<ImageLayer> readExr(const std::string& path) {
     } catch (const std::exception& e) {
         throw InputError(path, 0, std::string("cannot read OpenEXR image: ") + e.what());
     }
+}
+
+ImageLayer readExrLayer(const std::string& path, const std::string& name) {
+    std::vector<ImageLayer> layers = readExr(path);
+    for (ImageLayer& layer : layers)
+        if (layer.name == name) return std::move(layer);
+    std::string available;
+    for (const ImageLayer& layer : layers)
+        available += (available.empty() ? "" : ", ") + (layer.name.empty() ? std::string("(main)") : layer.name);
+    const std::string wanted = name.empty() ? std::string("no main RGB layer (R, G, B)") : "no layer \"" + name + "\"";
+    throw InputError(path, 0, wanted + "; layers in the file: " + available);
 }
 
 glm::dvec3 displayEncode(const glm::dvec3& linearRgb, double exposure) {

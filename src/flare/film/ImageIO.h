@@ -61,6 +61,10 @@ void writeExr(const std::string& path, const std::vector<ImageLayer>& layers,
 // InputError(path, 0, problem).
 std::vector<ImageLayer> readExr(const std::string& path);
 
+// The layer `name` of an EXR ("" = the main image). A missing layer (a typo, or a file written
+// without --layers) throws InputError(path, 0, problem) listing the layers the file does have.
+ImageLayer readExrLayer(const std::string& path, const std::string& name);
+
 // Display encoding for the PNG preview of a linear Rec.709 value: multiply by `exposure`, apply
 // the Reinhard curve x/(1 + x) to the luminance while keeping the chromaticity (so bright cores
 // roll off smoothly instead of clipping to a hue-shifted plateau), pull colours that still leave

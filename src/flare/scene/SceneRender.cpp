@@ -1,0 +1,77 @@
+#include "flare/scene/SceneRender.h"
+
+#include <algorithm>
+#include <utility>
+
+#include "flare/scene/SceneScattering.h"
+
+namespace flare {
+
+RenderOptions sceneRenderOptions(const Scene& scene, const LensSystem& lens, const SceneRenderOverrides& overrides) {
+    RenderOptions options;
+    options.mode = overrides.mode;
+    options.seed = overrides.seed.value_or(scene.render.seed);
+    options.maxBounces = overrides.maxBounces.value_or(scene.render.maxBounces);
+    options.perGhostLayers = overrides.perGhostLayers;
+    // The ghosts are the order-2 paths; a scene's ghost_order 4 asks for the order-4 chains to be
+    // guided as well (in the `higher` layer).
+    options.analysis.order = 2;
+    options.higherOrder = overrides.higherOrder == RenderOptions::HigherOrder::Auto && scene.render.ghostOrder == 4
+                              ? RenderOptions::HigherOrder::On
+                              : overrides.higherOrder;
+    options.analysis.includeSensor = scene.render.includeSensorGhosts;
+    options.analysis.keepShare = scene.render.pruneKeepShare;
+    options.analysis.relativeThreshold = scene.render.pruneRelativeThreshold;
+    applySceneScattering(scene, lens, options);
+    if (overrides.interiorAlbedo) {
+        const double albedo = *overrides.interiorAlbedo;
+        options.materials.housingAlbedo = options.materials.edgeAlbedo = options.materials.irisAlbedo = albedo;
+        options.materials.housingGlossy = options.materials.edgeGlossy = options.materials.irisGlossy = 0.0;
+    }
+    options.film.widthPx = scene.sensor.widthPx;
+    options.film.heightPx = scene.sensor.heightPx;
+    options.film.widthMm = lens.sensor().widthMm;
+    options.film.heightMm = lens.sensor().heightMm;
+    options.film.kernel = overrides.kernel;
+    options.film.radiusPx = overrides.radiusPx;
+    options.smoothNeighbours = overrides.smoothNeighbours;
+    if (overrides.kernel == FilmSettings::Kernel::Progressive && overrides.radiusPx == 1.0) options.film.radiusPx = 4.0;
+    return options;
+}
+
+RenderStopRule RenderStopRule::make(const Scene& scene, const RenderOptions& options, std::int64_t photons,
+                                    double timeS, double targetError) {
+    RenderStopRule rule;
+    rule.timeS = timeS;
+    rule.targetError = targetError;
+    const std::int64_t photonLimit = photons > 0 ? photons : (timeS > 0.0 ? 0 : scene.render.photons);
+    const std::int64_t perPass = options.photonsPerPass();
+    if (photonLimit > 0) rule.passesWanted = std::max<std::int64_t>(2, (photonLimit + perPass - 1) / perPass);
+    return rule;
+}
+
+bool RenderStopRule::reached(const Renderer& renderer, double elapsedS) const {
+    const int done = renderer.statistics().passes;
+    if (done < 2) return false;
+    if (passesWanted > 0 && done >= passesWanted) return true;
+    if (timeS > 0.0 && elapsedS >= timeS) return true;
+    return targetError > 0.0 && done >= kMinPassesToStop && renderer.estimatedRelativeError(kGroupFlare) <= targetError;
+}
+
+std::vector<ImageLayer> renderLayers(const Renderer& renderer) {
+    const int w = renderer.options().film.widthPx, h = renderer.options().film.heightPx;
+    std::vector<float> total(static_cast<size_t>(w) * h * 3, 0.0f);
+    std::vector<ImageLayer> layers{ImageLayer{}};
+    for (int l = 0; l < static_cast<int>(renderer.layerNames().size()); ++l) {
+        const std::vector<float> xyz = renderer.layerXyz(l);
+        if (l < kFixedLayerCount)
+            for (size_t i = 0; i < xyz.size(); ++i) total[i] += xyz[i];
+        layers.push_back(rgbLayerFromXyz(renderer.layerNames()[l], xyz, w, h));
+    }
+    layers.front() = rgbLayerFromXyz("", total, w, h);
+    std::vector<float> variance = renderer.film().varianceRgb();
+    if (!variance.empty()) layers.push_back(ImageLayer{"variance", w, h, std::move(variance)});
+    return layers;
+}
+
+}  // namespace flare

@@ -1,0 +1,63 @@
+// The final render of a whole scene (Render.h), as `flare render` and the Python module run it:
+// the render options from the scene and the caller's overrides, when to stop, and the images.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "flare/film/ImageIO.h"
+#include "flare/optics/LensSystem.h"
+#include "flare/render/Render.h"
+#include "flare/scene/Scene.h"
+
+namespace flare {
+
+// What a caller may change of the scene's render settings; unset values are the scene's.
+struct SceneRenderOverrides {
+    RenderOptions::Mode mode = RenderOptions::Mode::Guided;
+    std::optional<std::uint64_t> seed;
+    std::optional<int> maxBounces;  // −1: unbounded
+    bool perGhostLayers = false;
+    // Auto guides the order-4 chains when the scene's ghost_order is 4, else leaves the choice to
+    // the lens's reflectances (RenderOptions::HigherOrder::Auto).
+    RenderOptions::HigherOrder higherOrder = RenderOptions::HigherOrder::Auto;
+    FilmSettings::Kernel kernel = FilmSettings::Kernel::Fixed;
+    double radiusPx = 1.0;  // the progressive kernel starts at 4 px when this is left at 1
+    int smoothNeighbours = 256;
+    // The diffuse albedo of the barrel, element edges and iris blades (not glossy), replacing the
+    // scene's finishes.
+    std::optional<double> interiorAlbedo;
+};
+
+// The render options of the scene's lights on `lens` (built at the scene's state by
+// buildSceneLens), its scattering applied (applySceneScattering: InputError for a scattering block
+// the lens cannot take).
+RenderOptions sceneRenderOptions(const Scene& scene, const LensSystem& lens, const SceneRenderOverrides& overrides);
+
+// The error estimate of a render with fewer passes than this is too rough to stop on (its
+// variance estimate has passes − 1 degrees of freedom).
+inline constexpr int kMinPassesToStop = 8;
+
+// When a render stops: at the target error (the estimated relative L2 error of the flare without
+// the direct image), the time or the photon count, whichever is reached first, and never before two
+// passes (so that the variance estimate exists). Without a time or a photon count, the scene's
+// photon count is the limit, so that a target the scene cannot reach still ends.
+struct RenderStopRule {
+    std::int64_t passesWanted = 0;  // 0: no photon limit
+    double timeS = 0.0;             // 0: no time limit
+    double targetError = 0.0;       // 0: no target
+
+    // photons, timeS, targetError: 0 for none.
+    static RenderStopRule make(const Scene& scene, const RenderOptions& options, std::int64_t photons, double timeS,
+                               double targetError);
+    bool reached(const Renderer& renderer, double elapsedS) const;
+};
+
+// The render's images in linear Rec.709 RGB, as `flare render` writes them: the main image ""
+// (the sum of the fixed layers), then every film layer by name (direct, ghost, higher, scatter,
+// then per-ghost and per-scatter-source layers when asked for), then "variance" when the film
+// estimates it.
+std::vector<ImageLayer> renderLayers(const Renderer& renderer);
+
+}  // namespace flare
