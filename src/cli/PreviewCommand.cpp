@@ -1,6 +1,7 @@
 #include "PreviewCommand.h"
 
 #include "Output.h"
+#include "StarburstReport.h"
 
 #include <chrono>
 #include <cstdio>
@@ -21,6 +22,7 @@ struct PreviewCommandOptions {
     std::string png;
     bool layers = false;
     bool floatLayers = false;
+    bool noDiffraction = false;
     bool quiet = false;
 };
 
@@ -28,7 +30,8 @@ void run(const PreviewCommandOptions& o) {
     const auto start = std::chrono::steady_clock::now();
     checkWritable(o.exr);
     if (!o.png.empty()) checkWritable(o.png);
-    const Scene scene = o.scene.empty() ? defaultScene() : loadScene(o.scene);
+    Scene scene = o.scene.empty() ? defaultScene() : loadScene(o.scene);
+    if (o.noDiffraction) scene.render.diffraction = false;
     const LensSystem lens = buildSceneLens(scene);
 
     ScenePreview preview = previewScene(scene, lens, o.layers);
@@ -39,14 +42,15 @@ void run(const PreviewCommandOptions& o) {
         o.png.empty() ? 0.0
                       : 0.25 * autoExposure(rgbLayerFromXyz("ghost", preview.ghosts, preview.widthPx, preview.heightPx));
     const std::vector<ImageLayer> layers = previewLayers(preview, o.layers);
-    // Per-ghost layers (after "", direct and ghost) at half precision (11 significant bits, what
+    // Per-ghost layers (ghost_...) at half precision (11 significant bits, what
     // compositing uses), which halves the file: as half floats where the layer's values fit half's
     // range, else as floats rounded to half's precision (a weak ghost can lie below half's range in
     // the lights' units). The main image and the direct and ghost layers stay exact.
     ExrWriteOptions storage;
     if (!o.floatLayers)
-        for (size_t i = 3; i < layers.size(); ++i)
-            storage.storage[layers[i].name] = fitsHalf(layers[i]) ? ExrStorage::Half : ExrStorage::FloatHalfPrecision;
+        for (size_t i = 0; i < layers.size(); ++i)
+            if (layers[i].name.starts_with("ghost_"))
+                storage.storage[layers[i].name] = fitsHalf(layers[i]) ? ExrStorage::Half : ExrStorage::FloatHalfPrecision;
     const std::vector<std::pair<std::string, std::string>> metadata = {
         {"software", "flare preview"},
         {"colorSpace", "linear Rec.709 (sRGB primaries, D65 white)"},
@@ -62,6 +66,7 @@ void run(const PreviewCommandOptions& o) {
         std::fprintf(stderr, "preview: %s, %zu light(s), %d ghost renders (%d pruned), %ld rays, %.2f s\n",
                      lens.name().c_str(), scene.lights.size(), preview.renderedGhosts, preview.prunedGhosts,
                      preview.tracedRays, seconds);
+    if (!o.quiet && preview.starburst) printStarburst(*preview.starburst);
     std::printf("wrote %s%s%s\n", o.exr.c_str(), o.png.empty() ? "" : " and ", o.png.c_str());
 }
 
@@ -74,7 +79,9 @@ void addPreviewCommand(CLI::App& app) {
     preview->add_option("-o,--output", o->exr, "EXR file to write")->required();
     preview->add_option("--png", o->png, "also write a tone-mapped PNG");
     preview->add_flag("--layers", o->layers,
-                      "add layers: direct, ghost (32-bit float) and one per ghost (ghost_03_07.R/G/B, half precision)");
+                      "add layers: direct, starburst (the direct image diffracted), ghost (32-bit float) and one per ghost (ghost_03_07.R/G/B, half precision)");
+    preview->add_flag("--no-diffraction", o->noDiffraction,
+                      "leave the light's own image geometric: no starburst (as the scene's render.diffraction: false)");
     preview->add_flag("--float-layers", o->floatLayers, "with --layers: store the per-ghost layers as exact 32-bit float");
     preview->add_flag("--quiet", o->quiet, "no statistics on stderr");
     preview->callback([o] { run(*o); });

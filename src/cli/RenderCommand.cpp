@@ -8,6 +8,7 @@
 #include <cstring>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -15,12 +16,14 @@
 #include <tbb/global_control.h>
 
 #include "Output.h"
+#include "StarburstReport.h"
 #include "flare/core/Error.h"
 #include "flare/core/Spectrum.h"
 #include "flare/film/ImageIO.h"
 #include "flare/render/Render.h"
 #include "flare/scene/Scene.h"
 #include "flare/scene/SceneRender.h"
+#include "flare/scene/SceneStarburst.h"
 
 namespace flare::cli {
 
@@ -43,6 +46,7 @@ struct RenderCommandOptions {
     double checkpointIntervalS = 60.0;
     double interiorAlbedo = -1.0;  // < 0: the scene's finishes
     bool layers = false;
+    bool noDiffraction = false;
     bool quiet = false;
 };
 
@@ -198,7 +202,8 @@ int run(const RenderCommandOptions& o) {
         if (!path->empty()) checkWritable(*path);
     gInterrupted.store(false);
     auto previous = std::signal(SIGINT, onInterrupt);
-    const Scene scene = o.scene.empty() ? defaultScene() : loadScene(o.scene);
+    Scene scene = o.scene.empty() ? defaultScene() : loadScene(o.scene);
+    if (o.noDiffraction) scene.render.diffraction = false;
     const LensSystem lens = buildSceneLens(scene);
 
     SceneRenderOverrides overrides;
@@ -264,7 +269,12 @@ int run(const RenderCommandOptions& o) {
         return 130;
     }
 
-    const std::vector<ImageLayer> layers = renderLayers(renderer);
+    // The light's own image, diffracted: in the main image in place of the direct layer.
+    std::optional<StarburstImage> starburst;
+    if (scene.render.diffraction)
+        starburst = sceneStarburst(scene, lens, renderer.layerXyz(kLayerDirect), options.film.widthPx,
+                                   options.film.heightPx);
+    const std::vector<ImageLayer> layers = renderLayers(renderer, starburst ? &*starburst : nullptr);
 
     const RenderStatistics& s = renderer.statistics();
     const std::vector<std::pair<std::string, std::string>> metadata = {
@@ -282,7 +292,11 @@ int run(const RenderCommandOptions& o) {
         const ImageLayer& ghost = layers[1 + kLayerGhost];
         writePng(o.png, layers.front(), 0.25 * autoExposure(ghost));
     }
-    if (!o.report.empty()) writeFileAtomically(o.report, reportJson(renderer, scene, lens, o).dump(2) + "\n");
+    if (!o.report.empty()) {
+        nlohmann::json report = reportJson(renderer, scene, lens, o);
+        if (starburst) report["diffraction"] = starburstJson(*starburst);
+        writeFileAtomically(o.report, report.dump(2) + "\n");
+    }
     if (o.checkpoint.empty() && std::filesystem::exists(checkpoint)) std::filesystem::remove(checkpoint);
     else if (!o.checkpoint.empty()) renderer.saveCheckpoint(checkpoint);
 
@@ -294,6 +308,7 @@ int run(const RenderCommandOptions& o) {
                      static_cast<long long>(s.beams), s.seconds, 100.0 * renderer.estimatedRelativeError(kGroupFlare));
         for (const LightPlan& l : renderer.lights())
             if (l.skipped) std::fprintf(stderr, "  skipped light %s: %s\n", l.name.c_str(), l.skipReason.c_str());
+        if (starburst) printStarburst(*starburst);
     }
     std::printf("wrote %s%s%s%s%s\n", o.exr.c_str(), o.png.empty() ? "" : " and ", o.png.c_str(),
                 o.report.empty() ? "" : " and ", o.report.c_str());
@@ -325,6 +340,8 @@ void addRenderCommand(CLI::App& app) {
     render->add_flag("--layers", o->layers,
                      "add one layer per kept ghost (ghost_03_07.R/G/B) and per scatter source the scene has "
                      "(scatter_housing, scatter_dust, scatter_grease, scatter_bulk)");
+    render->add_flag("--no-diffraction", o->noDiffraction,
+                     "leave the light's own image geometric: no starburst layer (as the scene's render.diffraction: false)");
     render->add_option("--png", o->png, "also write a tone-mapped PNG");
     render->add_option("--report", o->report, "write a JSON report (per-ghost power with standard errors, layers, energy)");
     render->add_option("--checkpoint", o->checkpoint,

@@ -36,6 +36,7 @@
 #include "flare/scene/Scene.h"
 #include "flare/scene/ScenePreview.h"
 #include "flare/scene/SceneRender.h"
+#include "flare/scene/SceneStarburst.h"
 
 namespace py = pybind11;
 
@@ -247,7 +248,12 @@ py::dict render(const Scene& scene, const RenderArguments& arguments, const Scen
     std::vector<ImageLayer> images;
     {
         py::gil_scoped_release release;
-        images = renderLayers(*renderer);
+        // As `flare render`: the starburst in place of the direct image when the scene asks for it.
+        std::optional<StarburstImage> starburst;
+        if (scene.render.diffraction)
+            starburst = sceneStarburst(scene, *lens, renderer->layerXyz(kLayerDirect), options->film.widthPx,
+                                       options->film.heightPx);
+        images = renderLayers(*renderer, starburst ? &*starburst : nullptr);
     }
     return toDict(images);
 }

@@ -95,7 +95,7 @@ void parseSensor(const Checker& c, const Node& node, Scene& scene) {
 void parseRender(const Checker& c, const Node& node, RenderSettings& r) {
     c.object(node, "render",
              {"preview_wavelengths", "ghost_order", "prune_keep_share", "prune_relative_threshold", "photons", "seed",
-              "max_bounces", "sensor_ghosts"});
+              "max_bounces", "sensor_ghosts", "diffraction", "diffraction_wavelengths"});
     if (const Member* m = Checker::find(node, "preview_wavelengths"))
         r.previewWavelengths = static_cast<int>(c.integerIn(m->value, "render.preview_wavelengths", 1, 64));
     if (const Member* m = Checker::find(node, "ghost_order")) {
@@ -123,6 +123,9 @@ void parseRender(const Checker& c, const Node& node, RenderSettings& r) {
         r.maxBounces = static_cast<int>(c.integerIn(m->value, "render.max_bounces", -1, 10000));
     if (const Member* m = Checker::find(node, "sensor_ghosts"))
         r.includeSensorGhosts = c.boolean(m->value, "render.sensor_ghosts");
+    if (const Member* m = Checker::find(node, "diffraction")) r.diffraction = c.boolean(m->value, "render.diffraction");
+    if (const Member* m = Checker::find(node, "diffraction_wavelengths"))
+        r.diffractionWavelengths = static_cast<int>(c.integerIn(m->value, "render.diffraction_wavelengths", 1, 256));
 }
 
 std::string shippedLensNames() {

@@ -37,6 +37,8 @@ struct RenderSettings {
     std::uint64_t seed = 1;
     int maxBounces = -1;                  // reflections per photon path; −1: unbounded (roulette)
     bool includeSensorGhosts = true;      // paths that reflect off the sensor
+    bool diffraction = true;              // the starburst: the direct image convolved with the PSF
+    int diffractionWavelengths = 32;      // spectral quadrature of the diffraction PSF
 };
 
 // Scattering (docs/scene-format.md, "scattering"). Surfaces are numbered from 1 in file order,

@@ -7,6 +7,7 @@
 
 #include "flare/core/Spectrum.h"
 #include "flare/ghosts/GhostAnalysis.h"
+#include "flare/scene/SceneStarburst.h"
 
 namespace flare {
 
@@ -59,16 +60,19 @@ ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGh
         result.renderedGhosts += static_cast<int>(image.tracedRays.size());
         result.prunedGhosts += report.prunedCount;
     }
+    if (scene.render.diffraction)
+        result.starburst = sceneStarburst(scene, lens, result.direct, result.widthPx, result.heightPx);
     return result;
 }
 
 std::vector<ImageLayer> previewLayers(ScenePreview& preview, bool withLayers) {
-    std::vector<float> total = preview.direct;
+    std::vector<float> total = preview.starburst ? preview.starburst->xyz : preview.direct;
     add(total, preview.ghosts);
     const int w = preview.widthPx, h = preview.heightPx;
     std::vector<ImageLayer> layers{rgbLayerFromXyz("", total, w, h)};
     if (withLayers) {
         layers.push_back(rgbLayerFromXyz("direct", preview.direct, w, h));
+        if (preview.starburst) layers.push_back(rgbLayerFromXyz("starburst", preview.starburst->xyz, w, h));
         layers.push_back(rgbLayerFromXyz("ghost", preview.ghosts, w, h));
         for (auto& [name, xyz] : preview.perGhost) {
             layers.push_back(rgbLayerFromXyz(name, xyz, w, h));

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,7 @@
 #include "flare/optics/LensSystem.h"
 #include "flare/photons/Light.h"
 #include "flare/scene/Scene.h"
+#include "flare/wave/Starburst.h"
 
 namespace flare {
 
@@ -25,15 +27,19 @@ struct ScenePreview {
     int widthPx = 0, heightPx = 0;
     std::vector<float> direct, ghosts;
     std::map<std::string, std::vector<float>> perGhost;  // with per-ghost layers: by path label
+    // With the scene's render.diffraction: the direct image diffracted (SceneStarburst.h).
+    std::optional<StarburstImage> starburst;
     long tracedRays = 0;
     int renderedGhosts = 0, prunedGhosts = 0;  // summed over the lights
 };
 
-// `lens` is built at the scene's state (buildSceneLens).
+// `lens` is built at the scene's state (buildSceneLens). The starburst is computed when the
+// scene's render.diffraction is set.
 ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGhostLayers);
 
 // The preview's images in linear Rec.709 RGB, as `flare preview` writes them: the main image ""
-// (direct + ghosts), then with `withLayers` "direct", "ghost" and the per-ghost layers by label.
+// (the starburst, or the direct image without diffraction, + ghosts), then with `withLayers`
+// "direct", "starburst" (with diffraction), "ghost" and the per-ghost layers by label.
 // Each per-ghost XYZ buffer is released once converted (one copy at a time).
 std::vector<ImageLayer> previewLayers(ScenePreview& preview, bool withLayers);
 

@@ -58,17 +58,19 @@ bool RenderStopRule::reached(const Renderer& renderer, double elapsedS) const {
     return targetError > 0.0 && done >= kMinPassesToStop && renderer.estimatedRelativeError(kGroupFlare) <= targetError;
 }
 
-std::vector<ImageLayer> renderLayers(const Renderer& renderer) {
+std::vector<ImageLayer> renderLayers(const Renderer& renderer, const StarburstImage* starburst) {
     const int w = renderer.options().film.widthPx, h = renderer.options().film.heightPx;
     std::vector<float> total(static_cast<size_t>(w) * h * 3, 0.0f);
     std::vector<ImageLayer> layers{ImageLayer{}};
     for (int l = 0; l < static_cast<int>(renderer.layerNames().size()); ++l) {
         const std::vector<float> xyz = renderer.layerXyz(l);
+        const std::vector<float>& summed = l == kLayerDirect && starburst ? starburst->xyz : xyz;
         if (l < kFixedLayerCount)
-            for (size_t i = 0; i < xyz.size(); ++i) total[i] += xyz[i];
+            for (size_t i = 0; i < summed.size(); ++i) total[i] += summed[i];
         layers.push_back(rgbLayerFromXyz(renderer.layerNames()[l], xyz, w, h));
     }
     layers.front() = rgbLayerFromXyz("", total, w, h);
+    if (starburst) layers.push_back(rgbLayerFromXyz("starburst", starburst->xyz, w, h));
     std::vector<float> variance = renderer.film().varianceRgb();
     if (!variance.empty()) layers.push_back(ImageLayer{"variance", w, h, std::move(variance)});
     return layers;

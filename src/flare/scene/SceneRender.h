@@ -10,6 +10,7 @@
 #include "flare/optics/LensSystem.h"
 #include "flare/render/Render.h"
 #include "flare/scene/Scene.h"
+#include "flare/wave/Starburst.h"
 
 namespace flare {
 
@@ -55,9 +56,9 @@ struct RenderStopRule {
 };
 
 // The render's images in linear Rec.709 RGB, as `flare render` writes them: the main image ""
-// (the sum of the fixed layers), then every film layer by name (direct, ghost, higher, scatter,
-// then per-ghost and per-scatter-source layers when asked for), then "variance" when the film
-// estimates it.
-std::vector<ImageLayer> renderLayers(const Renderer& renderer);
+// (the sum of the fixed layers, the starburst in place of the direct layer when given), then
+// every film layer by name (direct, ghost, higher, scatter, then per-ghost and per-scatter-source
+// layers when asked for), then "starburst" when given, then "variance" when the film estimates it.
+std::vector<ImageLayer> renderLayers(const Renderer& renderer, const StarburstImage* starburst = nullptr);
 
 }  // namespace flare
