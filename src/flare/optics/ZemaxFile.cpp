@@ -92,6 +92,7 @@ struct ZemaxSurface {
     std::string type = "STANDARD";
     int typeLine = 0;
     double curvature = 0.0;  // 1 / lens unit
+    int curvatureLine = 0;
     std::optional<double> thickness;  // lens units; +inf for INFINITY
     int thicknessLine = 0;
     double conic = 0.0;
@@ -177,6 +178,7 @@ void ZemaxReader::readSurfaceLine(ZemaxSurface& s, const std::string& keyword,
         s.typeLine = line;
     } else if (keyword == "CURV") {
         s.curvature = number(line, tokens, 1, "surface " + std::to_string(n) + ", CURV");
+        s.curvatureLine = line;
     } else if (keyword == "DISZ") {
         s.thickness = number(line, tokens, 1, "surface " + std::to_string(n) + ", DISZ", true);
         s.thicknessLine = line;
@@ -394,9 +396,9 @@ LensPrescription ZemaxReader::read(std::string_view bytes) {
 
     const ZemaxSurface& object = surfaces_.front();
     const ZemaxSurface& image = surfaces_.back();
-    if (object.curvature != 0.0) failSurface(object.line, 0, "CURV", "a curved object surface is not supported");
+    if (object.curvature != 0.0) failSurface(object.curvatureLine, 0, "CURV", "a curved object surface is not supported");
     if (object.glass) failSurface(object.glass->line, 0, "GLAS", "object space must be air");
-    if (image.curvature != 0.0) failSurface(image.line, image.number, "CURV", "a curved image surface (sensor) is not supported");
+    if (image.curvature != 0.0) failSurface(image.curvatureLine, image.number, "CURV", "a curved image surface (sensor) is not supported");
 
     double primaryUm = kDefaultPrimaryUm;
     if (!wavelengthsUm_.empty() || !wavelengthListUm_.empty()) {
