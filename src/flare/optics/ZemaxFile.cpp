@@ -57,7 +57,7 @@ std::string formatNumber(double value) {
 // Keywords that describe what flare does not model or computes itself (fields, wavelengths
 // beyond the primary, ray aiming, tolerances, editor state, notes): read past in silence.
 const std::set<std::string, std::less<>> kIgnoredSystemKeywords = {
-    "VERS", "NAME", "NOTE", "PFIL", "LANG", "ENPD", "ENVD", "GFAC", "GLRS", "GSTD", "RAIM", "PUSH",
+    "VERS", "NOTE", "PFIL", "LANG", "ENPD", "ENVD", "GFAC", "GLRS", "GSTD", "RAIM", "PUSH",
     "SDMA", "FTYP", "ROPD", "PICB", "XFLN", "YFLN", "XFLD", "YFLD", "FWGN", "FWGT", "VDXN", "VDYN",
     "VCXN", "VCYN", "VANN", "ZVDX", "ZVDY", "ZVCX", "ZVCY", "ZVAN", "WWGT", "WWGN", "POLS", "NSCD",
     "COFN", "LUID", "OBNA", "FLOA", "TOL", "DMFS", "EFFL", "BLNK", "TRAC", "RSCE", "MOFF", "CONF",
@@ -104,7 +104,6 @@ struct ZemaxSurface {
 };
 
 struct ThicknessOperand {
-    int surface = 0;
     std::map<int, std::pair<double, int>> values;  // configuration -> value, line
     int line = 0;  // the first line
 };
@@ -166,7 +165,7 @@ private:
     std::vector<ZemaxSurface> surfaces_;
     int configurations_ = 1, activeConfiguration_ = 1, configurationLine_ = 0;
     std::map<int, ThicknessOperand> thicknessOperands_;  // by surface
-    std::vector<std::pair<int, int>> thicknessSolves_;    // TCOM/TOLE: surface, line
+    std::vector<std::pair<int, int>> thicknessSolves_;    // TCOM: surface, line
 };
 
 void ZemaxReader::readSurfaceLine(ZemaxSurface& s, const std::string& keyword,
@@ -200,8 +199,7 @@ void ZemaxReader::readSurfaceLine(ZemaxSurface& s, const std::string& keyword,
         for (size_t i = 1; i < tokens.size(); ++i)
             if (number(line, tokens, i, "surface " + std::to_string(n) + ", OBDC") != 0.0)
                 failSurface(line, n, keyword, "a decentred aperture is not supported (flare's lenses are rotationally symmetric)");
-    } else if (keyword == "SQAP" || keyword == "ELAP" || keyword == "OBSC" || keyword == "SQOB" || keyword == "ELOB" ||
-               keyword == "UDAP" || keyword == "UDOB" || keyword == "SPID") {
+    } else if (keyword == "SQAP" || keyword == "ELAP" || keyword == "OBSC" || keyword == "SQOB" || keyword == "ELOB") {
         failSurface(line, n, keyword, "this aperture type is not supported (only circular apertures: DIAM or CLAP)");
     } else if (keyword == "SCBD" || keyword.rfind("DEC", 0) == 0 || keyword.rfind("TILT", 0) == 0) {
         for (size_t i = 1; i < tokens.size(); ++i)
@@ -210,9 +208,10 @@ void ZemaxReader::readSurfaceLine(ZemaxSurface& s, const std::string& keyword,
     } else if (keyword == "IGNR") {
         if (tokens.size() > 1 && number(line, tokens, 1, "surface " + std::to_string(n) + ", IGNR") != 0.0)
             failSurface(line, n, keyword, "an ignored surface is not supported (delete it from the file)");
-    } else if (keyword == "TCOM" || keyword == "TOLE") {
-        // Thickness solves: the saved DISZ holds the solved value of the active configuration,
-        // which is all a single configuration needs. The check waits for MNUM (readOperand).
+    } else if (keyword == "TCOM") {
+        // A thickness solve: the saved DISZ holds the solved value of the active configuration,
+        // which is all a single configuration needs; with several it is an error (checked once
+        // the whole file, MNUM included, is read).
         thicknessSolves_.push_back({s.number, line});
     } else if (keyword == "STOP") {
         s.stop = true;
@@ -240,6 +239,7 @@ void ZemaxReader::readOperand(const std::string& keyword, const std::vector<std:
                        " is not supported (flare's zoom positions differ in thicknesses only: THIC)");
     // THIC surface configuration value ...
     const int surface = integer(line, tokens, 1, "THIC surface");
+    if (surface < 0) fail(line, "THIC: surface " + std::to_string(surface) + " does not exist");
     const int configuration = integer(line, tokens, 2, "THIC configuration");
     const double value = number(line, tokens, 3, "THIC value", true);
     if (configuration < 1 || configuration > configurations_)
@@ -247,7 +247,6 @@ void ZemaxReader::readOperand(const std::string& keyword, const std::vector<std:
                        std::to_string(configurations_) + " (MNUM)");
     ThicknessOperand& op = thicknessOperands_[surface];
     if (op.values.empty()) op.line = line;
-    op.surface = surface;
     if (!op.values.emplace(configuration, std::pair{value, line}).second)
         fail(line, "THIC: surface " + std::to_string(surface) + " is given twice for configuration " +
                        std::to_string(configuration));
@@ -301,7 +300,7 @@ Medium ZemaxReader::medium(const ZemaxSurface& s, std::string* text) const {
 LensPrescription ZemaxReader::read(std::string_view bytes) {
     const std::string text = decodeText(bytes);
     int lineNumber = 0, lastLine = 0;
-    bool afterSurfaces = false;  // MNUM seen: operand lines follow
+    bool inConfigurations = false;  // MNUM seen: operand lines follow
     size_t start = 0;
     while (start <= text.size()) {
         size_t end = text.find('\n', start);
@@ -331,7 +330,7 @@ LensPrescription ZemaxReader::read(std::string_view bytes) {
                 if (unit == "MM") mmPerUnit_ = 1.0;
                 else if (unit == "CM") mmPerUnit_ = 10.0;
                 else if (unit == "IN") mmPerUnit_ = 25.4;
-                else if (unit == "METER" || unit == "M") mmPerUnit_ = 1000.0;
+                else if (unit == "METER") mmPerUnit_ = 1000.0;
                 else fail(line, "UNIT: unknown lens unit '" + unit + "' (MM, CM, IN or METER)");
             } else if (keyword == "NAME") {
                 std::string_view rest = lineText.substr(tokens[0].data() + tokens[0].size() - lineText.data());
@@ -358,14 +357,14 @@ LensPrescription ZemaxReader::read(std::string_view bytes) {
                 if (activeConfiguration_ < 1 || activeConfiguration_ > configurations_)
                     fail(line, "MNUM: the active configuration must lie in 1.." + std::to_string(configurations_));
                 configurationLine_ = line;
-                afterSurfaces = true;
-            } else if (keyword == "THIC" && !afterSurfaces) {
+                inConfigurations = true;
+            } else if (keyword == "THIC" && !inConfigurations) {
                 fail(line, "THIC: a multi-configuration operand before MNUM");
-            } else if (afterSurfaces && (keyword == "THIC" || kIgnoredOperands.count(keyword) || kUnsupportedOperands.count(keyword))) {
+            } else if (inConfigurations && (keyword == "THIC" || kIgnoredOperands.count(keyword) || kUnsupportedOperands.count(keyword))) {
                 readOperand(keyword, tokens, line);
             } else if (kIgnoredSystemKeywords.count(keyword)) {
                 // read past
-            } else if (!surfaces_.empty() && !afterSurfaces) {
+            } else if (!surfaces_.empty() && !inConfigurations) {
                 readSurfaceLine(surfaces_.back(), keyword, tokens, line);
             } else if (warnedKeywords_.insert(keyword).second) {
                 warn(line, "unknown keyword '" + keyword + "' ignored (and wherever it occurs again)");
@@ -378,7 +377,7 @@ LensPrescription ZemaxReader::read(std::string_view bytes) {
         fail(lastLine, "a lens needs an object surface, at least one lens surface and an image surface (SURF 0, 1, 2)");
     if (configurations_ > 1)
         for (const auto& [surface, line] : thicknessSolves_)
-            failSurface(line, surface, "TCOM/TOLE",
+            failSurface(line, surface, "TCOM",
                         "a thickness solve is not supported with several configurations (its value in each would have to be solved)");
 
     // Surface types: the same checks for every surface, with the object and image included.

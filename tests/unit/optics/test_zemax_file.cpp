@@ -2,10 +2,13 @@
 // and UTF-16 LE with a byte-order mark) has the same focal length and the same ghost table; units,
 // glasses, coatings, the stop and configurations read as documented; every unsupported keyword and
 // malformed line is an error naming the file, the line and the surface; the CLI reads and writes
-// .zmx files.
+// .zmx files; scenes name them.
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
+#include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -20,6 +23,7 @@
 #include "flare/optics/LensLibrary.h"
 #include "flare/optics/Paraxial.h"
 #include "flare/optics/ZemaxFile.h"
+#include "flare/scene/Scene.h"
 
 namespace flare {
 namespace {
@@ -103,12 +107,11 @@ TEST(ZemaxFile, ShippedLensesKeepTheirRealRayGhostPowers) {
         const GhostReport a = analyseGhosts(lensA, direction, options), b = analyseGhosts(lensB, direction, options);
         ASSERT_EQ(a.ghosts.size(), b.ghosts.size()) << file;
         expectClose(a.direct.powerFraction, b.direct.powerFraction, std::string(file) + " direct");
-        for (size_t i = 0; i < a.ghosts.size(); ++i) {
-            if (a.ghosts[i].pruned) continue;
-            EXPECT_EQ(a.ghosts[i].path, b.ghosts[i].path) << file << " rank " << i;
-            EXPECT_NEAR(b.ghosts[i].powerFraction, a.ghosts[i].powerFraction, 1e-6 * a.ghosts[i].powerFraction)
-                << file << " " << a.ghosts[i].path.label();
-        }
+        // Matched by path: ghosts of nearly equal power may swap ranks.
+        std::map<std::string, double> powers;
+        for (const GhostEstimate& g : b.ghosts) powers[g.path.label()] = g.powerFraction;
+        for (const GhostEstimate& g : a.ghosts)
+            EXPECT_NEAR(powers.at(g.path.label()), g.powerFraction, 1e-6 * g.powerFraction) << file << " " << g.path.label();
     }
 }
 
@@ -418,7 +421,7 @@ TEST(ZemaxFile, UnsupportedKeywordsAndMalformedLinesNameFileLineAndSurface) {
     text.insert(text.find("  DIAM 12 1 0"), "  TCOM 1 10\n");
     text += mnum + "THIC 3 1 4\nTHIC 3 2 5\n";
     EXPECT_EQ(parseError(text).line(), 19);
-    EXPECT_NE(parseError(text).problem().find("surface 1, TCOM/TOLE: a thickness solve"), std::string::npos);
+    EXPECT_NE(parseError(text).problem().find("surface 1, TCOM: a thickness solve"), std::string::npos);
     // Geometry the lens checks reject names the row's SURF line.
     expectError("  DIAM 12 1 0 0 1", "  DIAM 70 1 0 0 1", 13, "semi-aperture 70");
     // Too few surfaces.
@@ -449,6 +452,65 @@ TEST(ZemaxFile, CliReadsAndWritesZmxFiles) {
     EXPECT_NE(run.out.find(badFile + ":18: surface 1, GLAS: mirrors are not supported"), std::string::npos) << run.out;
     run = test::runCli("lens export double-gauss-50mm -o " + (dir / "dg.txt").string());
     EXPECT_EQ(run.exitCode, kExitInputError);
+}
+
+// Random edits of a valid zoom file (lines dropped, repeated or swapped, tokens replaced by
+// tokens seen elsewhere or by odd numbers): the reader returns a lens that builds at every position
+// or raises InputError, nothing else.
+TEST(ZemaxFile, EditedFilesGiveALensOrAnInputError) {
+    std::string base = doublet();
+    base += "MNUM 2 1\nTHIC 1 1 6\nTHIC 1 2 9\nTHIC 4 1 90\nTHIC 4 2 89\n";
+    std::vector<std::string> lines;
+    for (size_t start = 0, end; start < base.size(); start = end + 1) {
+        end = base.find('\n', start);
+        lines.push_back(base.substr(start, end - start));
+    }
+    const std::vector<std::string> odd = {"0", "-1", "1e308", "nan", "INFINITY", "-INFINITY", "99999", "2.5", "\"\"", "MIRROR"};
+    std::mt19937 rng(12345);
+    auto pick = [&](size_t n) { return static_cast<size_t>(rng() % n); };
+    int parsed = 0;
+    for (int trial = 0; trial < 3000; ++trial) {
+        std::vector<std::string> edited = lines;
+        for (int edit = 0, edits = 1 + static_cast<int>(pick(3)); edit < edits; ++edit) {
+            const size_t i = pick(edited.size()), j = pick(edited.size());
+            switch (pick(4)) {
+                case 0: edited.erase(edited.begin() + i); break;
+                case 1: edited.insert(edited.begin() + i, edited[j]); break;
+                case 2: std::swap(edited[i], edited[j]); break;
+                default: {
+                    std::vector<std::string> tokens;
+                    std::istringstream in(edited[i]);
+                    for (std::string t; in >> t;) tokens.push_back(t);
+                    if (tokens.empty()) break;
+                    tokens[pick(tokens.size())] = pick(2) ? odd[pick(odd.size())] : lines[j].substr(0, lines[j].find(' ', 2));
+                    edited[i].clear();
+                    for (const std::string& t : tokens) edited[i] += t + " ";
+                }
+            }
+            if (edited.empty()) edited.push_back("");
+        }
+        std::string text;
+        for (const std::string& l : edited) text += l + "\n";
+        try {
+            std::vector<std::string> warnings;
+            const LensPrescription p = parseZemaxText(pick(2) ? encodeUtf16Le(text) : text, "edited.zmx", &warnings);
+            for (const std::string& zoom : zoomStates(p)) LensSystem::build(p, LensState{zoom, {}, {}});
+            ++parsed;
+        } catch (const InputError& e) {
+            EXPECT_EQ(e.file(), "edited.zmx");
+        }
+    }
+    EXPECT_GT(parsed, 100);  // the edits leave many files valid: the reader is not just rejecting
+}
+
+TEST(ZemaxFile, ScenesNameZmxLenses) {
+    const auto dir = test::processTempDir("zemax-scene");
+    std::ofstream(dir / "doublet.zmx", std::ios::binary) << doublet();
+    const Scene scene = parseSceneText(
+        R"({"lens": "doublet.zmx", "lights": [{"type": "directional", "field_deg": [1, 0]}]})", "scene.json", dir.string());
+    const LensSystem lens = buildSceneLens(scene);
+    EXPECT_EQ(lens.name(), "Test doublet");
+    EXPECT_EQ(lens.surfaceCount(), 4);
 }
 
 }  // namespace
