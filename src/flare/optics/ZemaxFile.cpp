@@ -12,7 +12,6 @@
 
 #include "flare/core/Error.h"
 #include "flare/core/TextEncoding.h"
-#include "flare/optics/AgfCatalog.h"
 #include "flare/optics/LensFile.h"
 #include "flare/optics/LensSystem.h"
 #include "flare/optics/Paraxial.h"

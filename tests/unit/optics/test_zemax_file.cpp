@@ -273,6 +273,10 @@ TEST(ZemaxFile, ReadsTheDoubletAsWritten) {
     EXPECT_DOUBLE_EQ(lens.sensorZMm(), 6.0 + 2.5 + 4.0 + 90.0);
     EXPECT_EQ(lens.coating(0)->name, "mgf2");
     EXPECT_EQ(lens.coating(1), nullptr);  // cemented
+    // UTF-16 with characters beyond ASCII (one beyond the basic plane: a surrogate pair).
+    std::string named = doublet();
+    named.replace(named.find("Test doublet"), 12, "Objectif \u00e0 \u00bd \u2014 \U0001F4F7");
+    EXPECT_EQ(parseZemaxText(encodeUtf16Le(named), "named.zmx").name, "Objectif \u00e0 \u00bd \u2014 \U0001F4F7");
 }
 
 TEST(ZemaxFile, LensUnitsBecomeMillimetres) {
@@ -290,6 +294,12 @@ TEST(ZemaxFile, LensUnitsBecomeMillimetres) {
     const LensPrescription pMm = parseZemaxText(mm, "mm.zmx"), pCm = parseZemaxText(cm, "cm.zmx");
     EXPECT_NEAR(pCm.rows[0].asphere[0], pMm.rows[0].asphere[0], 1e-15);
     EXPECT_NEAR(pCm.rows[0].asphere[1], pMm.rows[0].asphere[1], 1e-18);
+    // An odd asphere's PARM i is the coefficient of r^i: its even terms are read.
+    std::string odd = doublet();
+    odd.replace(odd.find("  TYPE STANDARD\n  CURV 0.0163"), 15, "  TYPE ODDASPH\n  PARM 4 2e-6\n  PARM 6 -1e-9\n  PARM 3 0");
+    const LensPrescription pOdd = parseZemaxText(odd, "odd.zmx");
+    EXPECT_EQ(pOdd.rows[0].asphere[0], 2e-6);
+    EXPECT_EQ(pOdd.rows[0].asphere[1], -1e-9);
 }
 
 TEST(ZemaxFile, StopOnALensSurfaceBecomesAStopRowBesideIt) {
@@ -475,14 +485,18 @@ TEST(ZemaxFile, EditedFilesGiveALensOrAnInputError) {
             const size_t i = pick(edited.size()), j = pick(edited.size());
             switch (pick(4)) {
                 case 0: edited.erase(edited.begin() + i); break;
-                case 1: edited.insert(edited.begin() + i, edited[j]); break;
+                case 1: {
+                    const std::string repeated = edited[j];  // a copy: the insertion may move the lines
+                    edited.insert(edited.begin() + i, repeated);
+                    break;
+                }
                 case 2: std::swap(edited[i], edited[j]); break;
                 default: {
                     std::vector<std::string> tokens;
                     std::istringstream in(edited[i]);
                     for (std::string t; in >> t;) tokens.push_back(t);
                     if (tokens.empty()) break;
-                    tokens[pick(tokens.size())] = pick(2) ? odd[pick(odd.size())] : lines[j].substr(0, lines[j].find(' ', 2));
+                    tokens[pick(tokens.size())] = pick(2) ? odd[pick(odd.size())] : lines[pick(lines.size())].substr(0, 4);
                     edited[i].clear();
                     for (const std::string& t : tokens) edited[i] += t + " ";
                 }
