@@ -1,5 +1,6 @@
 #include "LensCommands.h"
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -311,8 +312,9 @@ void addLensCommands(CLI::App& app) {
     exportCommand->add_flag("--utf16", *utf16, "write UTF-16 with a byte-order mark, as OpticStudio does (default: ASCII/UTF-8)");
     exportCommand->callback([exportLens, exportOutput, utf16] {
         const std::string& out = *exportOutput;
-        if (out.size() < 4 || (out.compare(out.size() - 4, 4, ".zmx") != 0 && out.compare(out.size() - 4, 4, ".ZMX") != 0))
-            throw InputError(out, 0, "the output must be a .zmx file");
+        std::string extension = out.size() >= 4 ? out.substr(out.size() - 4) : "";
+        for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+        if (extension != ".zmx") throw InputError(out, 0, "the output must be a .zmx file");
         checkWritable(out);
         const std::string text = writeZemax(loadLens(*exportLens));
         writeFileAtomically(out, *utf16 ? encodeUtf16Le(text) : text);

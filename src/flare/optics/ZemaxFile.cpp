@@ -475,7 +475,7 @@ LensPrescription ZemaxReader::read(std::string_view bytes) {
         if (s.stop && ++stops > 1) failSurface(s.line, n, "STOP", "a second aperture stop");
         const bool plainStop = s.stop && row.radiusMm == 0.0 && row.asphere == decltype(row.asphere){} &&
                                before.describe() == row.mediumAfter.describe();
-        if (s.stop && plainStop) {
+        if (plainStop) {
             row.isStop = true;
             row.coatingName.reset();
             row.conic = 0.0;
