@@ -1,5 +1,6 @@
 #include "LensCommands.h"
 
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -15,6 +16,7 @@
 #include <vector>
 
 #include "flare/core/Error.h"
+#include "flare/core/TextEncoding.h"
 #include "flare/ghosts/GhostRays.h"
 #include "flare/ghosts/Ghosts.h"
 #include "flare/optics/LensCheck.h"
@@ -24,13 +26,14 @@
 #include "flare/optics/LensLibrary.h"
 #include "flare/optics/LensSystem.h"
 #include "flare/optics/Paraxial.h"
+#include "flare/optics/ZemaxFile.h"
 
 namespace flare::cli {
 
 namespace {
 
 constexpr const char* kLensHelp =
-    "lens prescription (.lens, or pbrt .dat), the name of a shipped lens such as double-gauss-50mm, or a library id";
+    "lens prescription (.lens, pbrt .dat or Zemax .zmx), the name of a shipped lens such as double-gauss-50mm, or a library id";
 
 void printLensInfo(const nlohmann::json& j) {
     std::printf("%s\n", j["name"].get<std::string>().c_str());
@@ -224,6 +227,25 @@ void addLensCommands(CLI::App& app) {
         if (*checkJsonFlag) std::cout << nlohmann::json{{"lenses", all}}.dump(2) << "\n";
         // Failed checks are findings about the input: the input-error exit code.
         if (failed) throw CLI::RuntimeError(kExitInputError);
+    });
+
+    auto exportLens = std::make_shared<std::string>();
+    auto exportOutput = std::make_shared<std::string>();
+    auto utf16 = std::make_shared<bool>(false);
+    CLI::App* exportCommand = lens->add_subcommand(
+        "export", "write the prescription as a Zemax OpticStudio .zmx file (every zoom position a configuration)");
+    exportCommand->add_option("LENS", *exportLens, kLensHelp)->required();
+    exportCommand->add_option("-o,--output", *exportOutput, ".zmx file to write")->required();
+    exportCommand->add_flag("--utf16", *utf16, "write UTF-16 with a byte-order mark, as OpticStudio does (default: ASCII/UTF-8)");
+    exportCommand->callback([exportLens, exportOutput, utf16] {
+        const std::string& out = *exportOutput;
+        std::string extension = out.size() >= 4 ? out.substr(out.size() - 4) : "";
+        for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+        if (extension != ".zmx") throw InputError(out, 0, "the output must be a .zmx file");
+        checkWritable(out);
+        const std::string text = writeZemax(loadLens(*exportLens));
+        writeFileAtomically(out, *utf16 ? encodeUtf16Le(text) : text);
+        std::printf("wrote %s\n", out.c_str());
     });
 
     auto drawOptions = std::make_shared<LensOptions>();

@@ -41,6 +41,7 @@
 #include "flare/optics/LensFile.h"
 #include "flare/optics/Paraxial.h"
 #include "flare/optics/SequentialTracer.h"
+#include "flare/optics/ZemaxFile.h"
 #include "flare/photons/PhotonTracer.h"
 #include "flare/photons/VolumeGrid.h"
 #include "flare/render/Render.h"
@@ -149,6 +150,11 @@ void lensInput(std::string_view data) {
     }
     try {
         exercise(parsePbrtLensText(data, "fuzz.dat"));
+    } catch (const InputError&) {
+    }
+    try {
+        std::vector<std::string> warnings;  // kept off stderr
+        exercise(parseZemaxText(data, "fuzz.zmx", &warnings));
     } catch (const InputError&) {
     }
 }

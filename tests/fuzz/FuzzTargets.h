@@ -13,7 +13,7 @@
 
 namespace flare::fuzz {
 
-// parseLensText and parsePbrtLensText on the same text; a lens that parses is built and a few
+// parseLensText, parsePbrtLensText and parseZemaxText on the same text; a lens that parses is built and a few
 // rays are traced through it (sequentially and with the photon tracer).
 void lensInput(std::string_view data);
 // parseSceneText; a scene that names a shipped lens is then built (zoom, focus, f-number,

@@ -1,4 +1,4 @@
-// libFuzzer entry point: the lens parsers (parseLensText, parsePbrtLensText) and what a parsed lens is used for. See FuzzTargets.h and scripts/fuzz.sh.
+// libFuzzer entry point: the lens parsers (parseLensText, parsePbrtLensText, parseZemaxText) and what a parsed lens is used for. See FuzzTargets.h and scripts/fuzz.sh.
 #include <cstddef>
 #include <cstdint>
 #include <string_view>

@@ -12,6 +12,10 @@ namespace flare {
 // U+FFFD), a UTF-8 BOM is dropped, anything else is returned as it is. Line ends are left alone.
 std::string decodeText(std::string_view bytes);
 
+// The reverse for writers: UTF-8 text as UTF-16 little-endian with a byte-order mark, as Zemax
+// writes its own files (a malformed UTF-8 sequence becomes U+FFFD).
+std::string encodeUtf16Le(std::string_view utf8);
+
 // Reads a whole file as bytes; raises InputError(path, 0, ...) naming `what` when it cannot be read.
 std::string readFileBytes(const std::string& path, const std::string& what);
 

@@ -15,6 +15,7 @@
 #include "flare/optics/EmbeddedLenses.h"
 #include "flare/optics/LensLibrary.h"
 #include "flare/optics/LensSystem.h"
+#include "flare/optics/ZemaxFile.h"
 
 namespace flare {
 
@@ -161,8 +162,8 @@ void checkAperture(const Parser& parser, const PrescriptionRow& row) {
     }
 }
 
-// Checks that apply to both formats once all rows are read.
-void validate(const Parser& parser, LensPrescription& p, int lastLine) {
+// Checks that apply to every format once all rows are read.
+void validate(const Parser& parser, const LensPrescription& p, int lastLine) {
     if (p.rows.empty()) parser.error(lastLine, "the lens has no surface rows");
     int stops = 0;
     for (const PrescriptionRow& row : p.rows) {
@@ -595,6 +596,12 @@ LensPrescription parsePbrtLensText(std::string_view text, const std::string& fil
     return p;
 }
 
+void validatePrescription(const LensPrescription& p, int lastLine) {
+    const Parser parser(p.sourceFile);
+    for (const PrescriptionRow& row : p.rows) checkAperture(parser, row);
+    validate(parser, p, lastLine);
+}
+
 LensPrescription loadLens(const std::string& pathOrName) {
     if (pathOrName.find('/') == std::string::npos && !std::ifstream(pathOrName).good()) {
         std::string name = pathOrName;
@@ -607,9 +614,10 @@ LensPrescription loadLens(const std::string& pathOrName) {
 }
 
 LensPrescription loadLensFile(const std::string& path) {
+    const std::string extension = path.size() >= 4 ? lower(path.substr(path.size() - 4)) : "";
+    if (extension == ".zmx") return loadZemaxFile(path);
     const std::string text = readFile(path);
-    const bool pbrt = path.size() >= 4 && lower(path.substr(path.size() - 4)) == ".dat";
-    return pbrt ? parsePbrtLensText(text, path) : parseLensText(text, path);
+    return extension == ".dat" ? parsePbrtLensText(text, path) : parseLensText(text, path);
 }
 
 }  // namespace flare

@@ -1,5 +1,6 @@
-// Reading lens prescriptions: the native `.lens` format (docs/lens-format.md) and pbrt's
-// four-column `.dat` files. Every problem raises InputError naming the file and line.
+// Reading lens prescriptions: the native `.lens` format (docs/lens-format.md), pbrt's four-column
+// `.dat` files and Zemax OpticStudio `.zmx` files (ZemaxFile.h). Every problem raises InputError
+// naming the file and line.
 #pragma once
 
 #include <string>
@@ -9,7 +10,7 @@
 
 namespace flare {
 
-// Chooses the reader by extension (`.dat`: pbrt; anything else: native).
+// Chooses the reader by extension, in any case (`.dat`: pbrt; `.zmx`: Zemax; anything else: native).
 LensPrescription loadLensFile(const std::string& path);
 
 // A path, or the name of a shipped lens (e.g. "double-gauss-50mm", with or without ".lens") when no
@@ -20,5 +21,11 @@ LensPrescription loadLens(const std::string& pathOrName);
 // Parses text already in memory; `fileName` is used in error messages and as the source file.
 LensPrescription parseLensText(std::string_view text, const std::string& fileName);
 LensPrescription parsePbrtLensText(std::string_view text, const std::string& fileName);
+
+// The checks every reader makes once its rows are read: each row's semi-aperture within its
+// surface, one stop that does not change the medium, known gaps and coatings, dirt where it can
+// settle, air after the last row, and every zoom position builds (no crossing surfaces). Raises
+// InputError naming p.sourceFile and the row's line (`lastLine` where no row is to blame).
+void validatePrescription(const LensPrescription& p, int lastLine);
 
 }  // namespace flare
