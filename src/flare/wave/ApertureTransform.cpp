@@ -16,6 +16,8 @@ constexpr int kSmoothBins = 2048;
 // A short run's length is spread over the normal angles it stands for (half the turn to each
 // neighbour), but never wider than this: next to a blade's corner the turn is the corner's.
 constexpr double kMaxSmoothSpreadRad = 2.0 * kPi / 180.0;
+// Consecutive spike runs whose normals turn by less than this belong to one (curved) edge.
+constexpr double kSameEdgeTurnRad = 5.0 * kPi / 180.0;
 
 double sinc(double x) { return std::abs(x) < 1e-4 ? 1.0 - x * x / 6.0 : std::sin(x) / x; }
 
@@ -104,13 +106,20 @@ ApertureTransform::ApertureTransform(std::vector<glm::dvec2> outline, const Aper
     const size_t runCount = runs_.size();
     for (size_t r = 0; r < runCount; ++r) {
         const ApertureEdge& e = runs_[r];
+        auto angleOf = [&](const ApertureEdge& o) { return std::atan2(o.normal.y, o.normal.x); };
         if (e.lengthMm >= options.spikeMinLengthMm) {
-            spikes_.push_back(e);
+            ApertureEdge spike = e;
+            const ApertureEdge& previous = runs_[(r + runCount - 1) % runCount];
+            const ApertureEdge& next = runs_[(r + 1) % runCount];
+            const double turnIn = std::abs(wrapAngle(angleOf(e) - angleOf(previous)));
+            const double turnOut = std::abs(wrapAngle(angleOf(next) - angleOf(e)));
+            if (previous.lengthMm >= options.spikeMinLengthMm && turnIn < kSameEdgeTurnRad) spike.fanBeforeRad = 0.5 * turnIn;
+            if (next.lengthMm >= options.spikeMinLengthMm && turnOut < kSameEdgeTurnRad) spike.fanAfterRad = 0.5 * turnOut;
+            spikes_.push_back(spike);
             continue;
         }
         smoothLengthMm_ += e.lengthMm;
-        const double beta = std::atan2(e.normal.y, e.normal.x);
-        auto angleOf = [&](const ApertureEdge& o) { return std::atan2(o.normal.y, o.normal.x); };
+        const double beta = angleOf(e);
         const double before = std::min(0.5 * std::abs(wrapAngle(beta - angleOf(runs_[(r + runCount - 1) % runCount]))),
                                        kMaxSmoothSpreadRad);
         const double after = std::min(0.5 * std::abs(wrapAngle(angleOf(runs_[(r + 1) % runCount]) - beta)),

@@ -27,6 +27,10 @@ struct ApertureEdge {
     glm::dvec2 normal{0.0};   // outward, unit
     glm::dvec2 tangent{0.0};  // unit, counter-clockwise along the outline
     double lengthMm = 0.0;
+    // A spike's fan: a curved edge is split into straight runs whose normals turn a little from one
+    // to the next, and its spike spreads over those normals, from β − fanBeforeRad to β +
+    // fanAfterRad (half the turn to each neighbouring run of the same edge; 0 at a corner).
+    double fanBeforeRad = 0.0, fanAfterRad = 0.0;
 };
 
 struct ApertureTransformOptions {

@@ -140,6 +140,11 @@ DiffractionPsf::DiffractionPsf(const ApertureTransform& aperture, std::vector<Sp
         // Energy per unit a (radians along n): L λ/(4π² a² A); per pixel along the line, with
         // a = r/|M n|: L λ |M n| / (4π² A r²).
         const double across = std::abs(glm::dot(pxPerRad_ * e.tangent, spike.transversePx));
+        // The pupil's normal angle turns the pixel direction the same way, or the other way when
+        // the map mirrors (the camera orientation).
+        const double sense = glm::determinant(pxPerRad_) > 0.0 ? 1.0 : -1.0;
+        spike.fanFromRad = std::min(-sense * e.fanBeforeRad, sense * e.fanAfterRad);
+        spike.fanToRad = std::max(-sense * e.fanBeforeRad, sense * e.fanAfterRad);
         for (int c = 0; c < 3; ++c) {
             spike.lineDensity[c] = e.lengthMm * lambdaMeanMm_[c] * alongLength / (4.0 * kPi * kPi * area);
             spike.transverseWidthPx[c] = lambdaMeanMm_[c] / e.lengthMm * across;

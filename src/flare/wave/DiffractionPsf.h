@@ -66,6 +66,9 @@ public:
         glm::dvec2 transversePx{0.0};  // unit, across it
         glm::dvec3 lineDensity{0.0};   // energy per pixel of length × r² (px²), per channel
         glm::dvec3 transverseWidthPx{0.0};  // λ/L in pixels across the spike (first zero of sinc²)
+        // The fan (ApertureEdge): the spike spreads uniformly over the directions turned from
+        // directionPx towards transversePx by angles in [fanFromRad, fanToRad].
+        double fanFromRad = 0.0, fanToRad = 0.0;
     };
     const std::vector<Spike>& spikes() const { return spikes_; }
     // The smooth halo's energy per pixel at offset (px), per channel, normalised.

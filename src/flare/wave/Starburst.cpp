@@ -74,11 +74,29 @@ struct TransverseProfile {
     double originPx = 0.0;  // the first bin's centre
     std::vector<double> density;
 
+    std::vector<double> cumulative;  // ∫ density up to each bin's centre
+
     double at(double t) const {
         const double x = (t - originPx) / kProfileBinPx;
         if (x <= 0.0 || x >= density.size() - 1.0) return 0.0;
         const size_t i = static_cast<size_t>(x);
         return density[i] + (x - i) * (density[i + 1] - density[i]);
+    }
+    // ∫_{−∞}^{t} of at().
+    double integral(double t) const {
+        const double x = (t - originPx) / kProfileBinPx;
+        if (x <= 0.0) return 0.0;
+        if (x >= density.size() - 1.0) return cumulative.back();
+        const size_t i = static_cast<size_t>(x);
+        const double u = x - i;
+        return cumulative[i] + kProfileBinPx * u * (density[i] + 0.5 * u * (density[i + 1] - density[i]));
+    }
+    // The mean of at() over the transverse offsets of a fan: the line at distance `along` turned
+    // by angles in [from, to] passes at along·φ.
+    double fanned(double t, double along, double from, double to) const {
+        const double spread = along * (to - from);
+        if (std::abs(spread) < kProfileBinPx) return at(t - along * 0.5 * (from + to));
+        return (integral(t - along * from) - integral(t - along * to)) / spread;
     }
 };
 
@@ -116,7 +134,10 @@ TransverseProfile transverseProfile(const std::vector<glm::dvec2>& pointsPx, con
     for (int i = 2; i + 2 < static_cast<int>(blurred.size()); ++i)
         for (int j = -2; j <= 2; ++j) density[i] += blurred[i + j] * box[j + 2];
     for (double& d : density) d /= kProfileBinPx;
-    return {-half * kProfileBinPx, std::move(density)};
+    std::vector<double> cumulative(density.size(), 0.0);
+    for (size_t i = 1; i < density.size(); ++i)
+        cumulative[i] = cumulative[i - 1] + 0.5 * kProfileBinPx * (density[i - 1] + density[i]);
+    return {-half * kProfileBinPx, std::move(density), std::move(cumulative)};
 }
 
 }  // namespace
@@ -259,6 +280,7 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
         // Row by row (each row's pixels get their additions in a fixed order: deterministic): the
         // halo everywhere, then each spike over the band of the row where its profile is not zero.
         const bool halo = aperture.smoothLengthMm() > 0.0;
+        const double frameDiagonalPx = std::hypot(double(width), double(height));
         tbb::parallel_for(0, height, [&](int y) {
             double rowY = 0.0;
             const size_t row = static_cast<size_t>(y) * width;
@@ -283,6 +305,9 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
                     lo = std::min(lo, profiles[s][c].originPx);
                     hi = std::max(hi, profiles[s][c].originPx + kProfileBinPx * profiles[s][c].density.size());
                 }
+                const double fanShift = frameDiagonalPx * std::max(std::abs(spikes[s].fanFromRad), std::abs(spikes[s].fanToRad));
+                lo -= fanShift;
+                hi += fanShift;
                 const double rowPart = (y + 0.5 - cropCentre.y) * across.y;
                 int x0 = 0, x1 = width - 1;
                 if (std::abs(across.x) > 1e-12) {
@@ -303,7 +328,9 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
                     const double r2 = glm::dot(offset, offset);
                     const double envelope = w * along * along / (r2 * r2);
                     glm::dvec3 value;
-                    for (int c = 0; c < 3; ++c) value[c] = spikes[s].lineDensity[c] * envelope * profiles[s][c].at(t);
+                    for (int c = 0; c < 3; ++c)
+                        value[c] = spikes[s].lineDensity[c] * envelope *
+                                   profiles[s][c].fanned(t, along, spikes[s].fanFromRad, spikes[s].fanToRad);
                     add(x, value);
                 }
             }
