@@ -139,10 +139,44 @@ ApertureTransform::ApertureTransform(std::vector<glm::dvec2> outline, const Aper
             if (overlap > 0.0) mass[((b % kSmoothBins) + kSmoothBins) % kSmoothBins] += density * overlap;
         }
     }
+    mergeCurvedEdges();
     smoothDensity_.assign(kSmoothBins, 0.0);
     for (int b = 0; b < kSmoothBins; ++b)  // a [1 2 1]/4 filter hides the bins' quantisation
         smoothDensity_[b] = (mass[(b + kSmoothBins - 1) % kSmoothBins] + 2.0 * mass[b] + mass[(b + 1) % kSmoothBins]) /
                             (4.0 * binRad);
+}
+
+// The runs of one curved edge (consecutive spikes whose fans meet) become one spike with their
+// total length and the whole fan: a constant curvature spreads the edge's light evenly over the
+// normals it turns through. The spikes are drawn per pixel, so one per edge, not one per run.
+void ApertureTransform::mergeCurvedEdges() {
+    std::vector<ApertureEdge> merged;
+    auto angleOf = [](const ApertureEdge& e) { return std::atan2(e.normal.y, e.normal.x); };
+    for (size_t i = 0; i < spikes_.size();) {
+        size_t j = i + 1;
+        while (j < spikes_.size() && spikes_[j - 1].fanAfterRad > 0.0 && spikes_[j].fanBeforeRad > 0.0) ++j;
+        if (j == i + 1) {
+            merged.push_back(spikes_[i]);
+            i = j;
+            continue;
+        }
+        ApertureEdge edge;
+        glm::dvec2 normalSum{0.0}, midpointSum{0.0};
+        for (size_t k = i; k < j; ++k) {
+            edge.lengthMm += spikes_[k].lengthMm;
+            normalSum += spikes_[k].lengthMm * spikes_[k].normal;
+            midpointSum += spikes_[k].lengthMm * spikes_[k].midpointMm;
+        }
+        edge.normal = glm::normalize(normalSum);
+        edge.tangent = {-edge.normal.y, edge.normal.x};
+        edge.midpointMm = midpointSum / edge.lengthMm;
+        const double beta = angleOf(edge);
+        edge.fanBeforeRad = std::abs(wrapAngle(beta - (angleOf(spikes_[i]) - spikes_[i].fanBeforeRad)));
+        edge.fanAfterRad = std::abs(wrapAngle(angleOf(spikes_[j - 1]) + spikes_[j - 1].fanAfterRad - beta));
+        merged.push_back(edge);
+        i = j;
+    }
+    spikes_ = std::move(merged);
 }
 
 std::complex<double> ApertureTransform::transform(const glm::dvec2& k) const {

@@ -58,12 +58,15 @@ public:
 
     // The asymptotic, fringe-averaged |F(k)|² (mm⁴): spikes plus smooth halo.
     double incoherentIntensity(const glm::dvec2& kPerMm) const;
+    // The straight edges (each run of a curved edge merged into one, with its fan).
     const std::vector<ApertureEdge>& spikeEdges() const { return spikes_; }
     // Smooth part: outline length per radian of outward-normal angle β (mm/rad), and its total.
     double smoothDensityMmPerRad(double normalAngleRad) const;
     double smoothLengthMm() const { return smoothLengthMm_; }
 
 private:
+    void mergeCurvedEdges();
+
     std::vector<ApertureEdge> runs_;    // the outline merged into straight runs (exact transform)
     std::vector<ApertureEdge> spikes_;  // the long runs
     std::vector<double> smoothDensity_; // per normal-angle bin, mm/rad

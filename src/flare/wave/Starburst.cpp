@@ -280,7 +280,6 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
         // Row by row (each row's pixels get their additions in a fixed order: deterministic): the
         // halo everywhere, then each spike over the band of the row where its profile is not zero.
         const bool halo = aperture.smoothLengthMm() > 0.0;
-        const double frameDiagonalPx = std::hypot(double(width), double(height));
         tbb::parallel_for(0, height, [&](int y) {
             double rowY = 0.0;
             const size_t row = static_cast<size_t>(y) * width;
@@ -299,24 +298,33 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
                 }
             for (size_t s = 0; s < spikes.size(); ++s) {
                 const glm::dvec2 across = spikes[s].transversePx;
-                // across(x) = (x + ½ − c.x)·t.x + (y + ½ − c.y)·t.y must stay inside the profiles.
+                // The pixels of this row that a line of the fan passes within the profiles' reach
+                // of: across(x) = (x + ½ − c.x)·t.x + (y + ½ − c.y)·t.y inside [lo, hi] for the
+                // fan's two extreme lines (t turned by φ), and everything between them.
                 double lo = 1e300, hi = -1e300;
                 for (int c = 0; c < 3; ++c) {
                     lo = std::min(lo, profiles[s][c].originPx);
                     hi = std::max(hi, profiles[s][c].originPx + kProfileBinPx * profiles[s][c].density.size());
                 }
-                const double fanShift = frameDiagonalPx * std::max(std::abs(spikes[s].fanFromRad), std::abs(spikes[s].fanToRad));
-                lo -= fanShift;
-                hi += fanShift;
-                const double rowPart = (y + 0.5 - cropCentre.y) * across.y;
+                double from = 1e300, to = -1e300;
+                bool wholeRow = false;
+                for (const double phi : {spikes[s].fanFromRad, spikes[s].fanToRad}) {
+                    const glm::dvec2 t = std::cos(phi) * across - std::sin(phi) * spikes[s].directionPx;
+                    const double rowPart = (y + 0.5 - cropCentre.y) * t.y;
+                    if (std::abs(t.x) < 1e-9) {
+                        wholeRow = wholeRow || (rowPart >= lo && rowPart <= hi);
+                        continue;
+                    }
+                    const double a = cropCentre.x - 0.5 + (lo - rowPart) / t.x;
+                    const double b = cropCentre.x - 0.5 + (hi - rowPart) / t.x;
+                    from = std::min(from, std::min(a, b));
+                    to = std::max(to, std::max(a, b));
+                }
                 int x0 = 0, x1 = width - 1;
-                if (std::abs(across.x) > 1e-12) {
-                    const double a = cropCentre.x - 0.5 + (lo - rowPart) / across.x;
-                    const double b = cropCentre.x - 0.5 + (hi - rowPart) / across.x;
-                    x0 = std::max(0, static_cast<int>(std::floor(std::min(a, b))));
-                    x1 = std::min(width - 1, static_cast<int>(std::ceil(std::max(a, b))));
-                } else if (rowPart < lo || rowPart > hi) {
-                    continue;
+                if (!wholeRow) {
+                    if (from > to) continue;
+                    x0 = std::max(0, static_cast<int>(std::floor(from)));
+                    x1 = std::min(width - 1, static_cast<int>(std::ceil(to)));
                 }
                 for (int x = x0; x <= x1; ++x) {
                     const glm::dvec2 offset = glm::dvec2(x + 0.5, y + 0.5) - cropCentre;
