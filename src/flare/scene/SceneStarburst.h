@@ -1,5 +1,6 @@
 // The starburst of a scene (wave/Starburst.h): its lights' direct image diffracted by the lens at
-// the scene's state, with the scene's spectral quadrature; and its report as JSON.
+// the scene's state, with the scene's spectral quadrature, and the glow of the dust of the scene
+// and of the lens file; and its report as JSON.
 #pragma once
 
 #include <vector>

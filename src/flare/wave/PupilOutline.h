@@ -37,6 +37,18 @@ struct PupilOutlineOptions {
 // apertures' images is).
 PupilOutline tracePupilOutline(const LensSystem& lens, const glm::dvec3& direction, const PupilOutlineOptions& options);
 
+// How a deflection of the beam just before surface `surface` (0-based; in the medium in front of
+// it, where dust on that face sits) moves its image: pixels per radian about two axes normal to
+// the beam there (the beam's centroid, as tracePupilOutline). `found` false when the beam does not
+// reach the surface and the sensor.
+struct SurfaceDeflection {
+    bool found = false;
+    glm::dmat2 pxPerRad{0.0};
+    double mediumIndex = 1.0;  // in front of the surface, at the options' wavelength
+};
+SurfaceDeflection traceSurfaceDeflection(const LensSystem& lens, const glm::dvec3& direction, int surface,
+                                         const PupilOutlineOptions& options);
+
 // The iris's own outline (at its plane, mm): `samples` directions plus the blades' corners, so
 // that the corners are exact.
 std::vector<glm::dvec2> irisOutline(const Iris& iris, int samples = 720);

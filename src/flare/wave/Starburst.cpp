@@ -7,10 +7,12 @@
 #include <stdexcept>
 
 #include <glm/geometric.hpp>
+#include <glm/matrix.hpp>
 #include <kiss_fftnd.h>
 #include <tbb/parallel_for.h>
 
 #include "flare/wave/DiffractionPsf.h"
+#include "flare/wave/DustGlow.h"
 
 namespace flare {
 
@@ -143,7 +145,8 @@ TransverseProfile transverseProfile(const std::vector<glm::dvec2>& pointsPx, con
 }  // namespace
 
 StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>& directXyz, int width, int height,
-                               const std::vector<StarburstLight>& lights, const StarburstOptions& options) {
+                               const std::vector<StarburstLight>& lights, const StarburstOptions& options,
+                               const std::vector<StarburstDust>& dust) {
     StarburstImage result;
     result.xyz = directXyz;
     const size_t pixels = static_cast<size_t>(width) * height;
@@ -347,6 +350,32 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
         double inFrame = 0.0;
         for (double r : inFrameRows) inFrame += r;
         report.outsideFrameShare = std::max(0.0, 1.0 - inFrame / cropEnergy.y);
+
+        // Dust: each dusty surface's glow, from the crop's centre, through the lens behind it.
+        for (const StarburstDust& layer : dust) {
+            if (!(layer.coverage > 0.0)) continue;
+            const SurfaceDeflection deflection = traceSurfaceDeflection(lens, lights[l].direction, layer.surface, outlineOptions);
+            if (!deflection.found || std::abs(glm::determinant(deflection.pxPerRad)) == 0.0) continue;
+            const DustGlow glow(layer.medianDiameterUm, layer.diameterSigma, lights[l].spectrum, deflection.mediumIndex);
+            const glm::dmat2 radPerPx = glm::inverse(deflection.pxPerRad);
+            const glm::dvec3 scale = layer.coverage * std::abs(glm::determinant(radPerPx)) * cropEnergy;
+            std::vector<double> glowRows(height, 0.0);
+            tbb::parallel_for(0, height, [&](int y) {
+                for (int x = 0; x < width; ++x) {
+                    const double theta = glm::length(radPerPx * (glm::dvec2(x + 0.5, y + 0.5) - cropCentre));
+                    const glm::dvec3 value = glow.perSteradian(theta) * scale;
+                    const size_t i = static_cast<size_t>(y) * width + x;
+                    for (int c = 0; c < 3; ++c) result.xyz[3 * i + c] += static_cast<float>(value[c]);
+                    glowRows[y] += value.y;
+                }
+            });
+            double glowInFrame = 0.0;
+            for (double r : glowRows) glowInFrame += r;
+            ++report.dustSurfaces;
+            report.dustGlowShare += layer.coverage;
+            report.dustGlowInFrameShare += glowInFrame / cropEnergy.y;
+        }
+        if (report.dustGlowShare > 0.0) report.dustGlowInFrameShare /= report.dustGlowShare;
         report.diffracted = true;
         report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     }

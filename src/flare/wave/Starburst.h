@@ -12,7 +12,9 @@
 //         and the pixel's width); the smooth halo times the crop's energy.
 // The window is several crop radii wide, so the far part's envelope is nearly constant across the
 // crop. The PSF integrates to 1, so the starburst holds the crop's energy minus what falls
-// outside the frame, which is reported. Pixels of the direct image outside every crop stay as
+// outside the frame, which is reported. Dusty surfaces add their glow (DustGlow.h), `coverage` of
+// the crop's energy, spread from its centre by the glow's pattern mapped through the lens behind
+// the dust (it is far wider than the crop). Pixels of the direct image outside every crop stay as
 // they are (undiffracted): at most 10⁻⁴ of a light's energy.
 #pragma once
 
@@ -43,6 +45,15 @@ struct StarburstLight {
     std::vector<SpectralSample> spectrum; // the light's spectral quadrature (normalised weights)
 };
 
+// Dust on a surface, for its forward diffraction (DustGlow.h): a glow carrying `coverage` of the
+// light, added to the starburst.
+struct StarburstDust {
+    int surface = 0;           // 0-based
+    double coverage = 0.0;     // mean over the surface's clear aperture
+    double medianDiameterUm = 20.0;
+    double diameterSigma = 0.5;
+};
+
 struct StarburstLightReport {
     std::string name;
     bool diffracted = false;
@@ -57,6 +68,9 @@ struct StarburstLightReport {
     double directEnergyY = 0.0;      // of this light's part of the direct image
     double diffractedShare = 0.0;    // of it, in the crop
     double outsideFrameShare = 0.0;  // of the diffracted energy, landing outside the frame
+    int dustSurfaces = 0;            // dusty surfaces whose glow was added
+    double dustGlowShare = 0.0;      // the glow's energy, as a share of the diffracted energy
+    double dustGlowInFrameShare = 0.0;  // of the glow, on the sensor
     double seconds = 0.0;
 };
 
@@ -67,7 +81,9 @@ struct StarburstImage {
 
 // `directXyz`: the direct layer (widthPx × heightPx × XYZ, camera orientation, as the preview and
 // the render write it). The lens's sensor gives the pixel size.
+// `dust`: the lens's dusty surfaces, whose glow is added (none: the iris's diffraction alone).
 StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>& directXyz, int widthPx, int heightPx,
-                               const std::vector<StarburstLight>& lights, const StarburstOptions& options = {});
+                               const std::vector<StarburstLight>& lights, const StarburstOptions& options = {},
+                               const std::vector<StarburstDust>& dust = {});
 
 }  // namespace flare

@@ -106,5 +106,46 @@ TEST(SceneStarburst, RenderMainImageTakesTheStarburstInPlaceOfTheDirectLayer) {
         EXPECT_NEAR(diffracted.front().rgb[i], expected[i], 1e-6f * std::abs(expected[i]) + 1e-30f) << i;
 }
 
+// Dust on the front element adds its diffraction glow: `coverage` of the diffracted light, spread
+// about the light's image, and nothing else changes.
+TEST(SceneStarburst, DustAddsItsGlowWithTheCoveragesEnergy) {
+    const std::string text = R"({"lens": "double-gauss-50mm", "f_number": 8,
+        "sensor": {"resolution": [384, 256]},
+        "lights": [{"type": "directional", "field_deg": [5, 3], "angular_diameter_deg": 0.53}],
+        "render": {"preview_wavelengths": 3, "diffraction_wavelengths": 8},
+        "scattering": {"dust": [{"surface": 1, "coverage": COVER, "diameter_um": 20}]}})";
+    auto withCoverage = [&](const std::string& c) {
+        std::string t = text;
+        t.replace(t.find("COVER"), 5, c);
+        return parseSceneText(t, "dusty.json", ".");
+    };
+    const Scene clean = withCoverage("0"), dusty = withCoverage("0.03");
+    const LensSystem lens = buildSceneLens(clean);
+    const ScenePreview a = previewScene(clean, lens, false);
+    const StarburstImage plain = sceneStarburst(clean, lens, a.direct, 384, 256);
+    const StarburstImage glowing = sceneStarburst(dusty, lens, a.direct, 384, 256);
+    ASSERT_EQ(glowing.lights[0].dustSurfaces, 1);
+    EXPECT_EQ(plain.lights[0].dustSurfaces, 0);
+    EXPECT_DOUBLE_EQ(glowing.lights[0].dustGlowShare, 0.03);
+    const double cropY = plain.lights[0].diffractedShare * sumY(a.direct);
+    const double added = sumY(glowing.xyz) - sumY(plain.xyz);
+    EXPECT_NEAR(added, 0.03 * cropY * glowing.lights[0].dustGlowInFrameShare, 1e-4 * added);
+    // A 20 µm particle's glow is a few degrees wide: most of it lands on a 36 mm frame at 50 mm.
+    EXPECT_GT(glowing.lights[0].dustGlowInFrameShare, 0.8);
+    EXPECT_LE(glowing.lights[0].dustGlowInFrameShare, 1.0);
+    // Centred on the light's image: its centroid within a few pixels of the starburst's.
+    glm::dvec2 glowCentre{0.0}, starCentre{0.0};
+    double glowSum = 0.0, starSum = 0.0;
+    for (int y = 0; y < 256; ++y)
+        for (int x = 0; x < 384; ++x) {
+            const size_t i = 3 * (static_cast<size_t>(y) * 384 + x) + 1;
+            const double g = double(glowing.xyz[i]) - plain.xyz[i];
+            glowCentre += g * glm::dvec2(x, y), glowSum += g;
+            starCentre += double(plain.xyz[i]) * glm::dvec2(x, y), starSum += plain.xyz[i];
+        }
+    // The glow is cut by the frame's edges, which pulls its centroid towards the frame's centre.
+    EXPECT_LT(glm::length(glowCentre / glowSum - starCentre / starSum), 25.0);
+}
+
 }  // namespace
 }  // namespace flare
