@@ -19,11 +19,12 @@ build/src/flare render --time 60 -o out/default-render.exr --png out/default-ren
 build/src/flare lens draw double-gauss-50mm -o out/double-gauss-50mm.svg --rays 11
 echo
 echo "output in $(pwd)/out:"
-echo "  default.exr          preview, linear Rec.709 (add --layers for direct, ghost and one layer per ghost)"
+echo "  default.exr          preview with the sun's diffraction starburst, linear Rec.709 (add --layers for"
+echo "                       direct, starburst, ghost and one layer per ghost)"
 echo "  default.png          tone-mapped preview"
 echo "  default-render.exr   final render (ghosts by beams, the rest by photons; to 2 % estimated error"
 echo "                       or 60 s): main image and the layers"
-echo "                       direct, ghost, higher, scatter and variance"
+echo "                       direct, ghost, higher, scatter, starburst and variance"
 echo "  default-render.png   tone-mapped render"
 echo "  default-render.json  render report: per-ghost power with standard errors, each layer's estimated"
 echo "                       error, energy"
