@@ -76,42 +76,63 @@ PlaneTracer planeTracer(const LensSystem& lens, const glm::dvec3& directionIn, c
 }
 
 // The live region on a seed grid: its centroid, and the points well inside it (all four
-// neighbours live) whose image moves with the direction without edge noise.
+// neighbours live) whose image moves with the direction without edge noise. A region smaller
+// than the grid's cells (a fisheye's pupil seen from far off axis, a small stop) is looked for on
+// grids up to eight times finer, centred on the first live point found.
 void seedRegion(const PlaneTracer& tracer, const PupilOutlineOptions& options, SeedRegion& region) {
-    const int n = options.seedGrid;
     const glm::dvec3 d = region.direction;
-    region.step = 2.0 * region.searchMm / n;
-    std::vector<char> live(static_cast<size_t>(n) * n, 0);
-    int liveCount = 0;
-    auto gridPoint = [&](int i, int j) {
-        return glm::dvec2(-region.searchMm + (i + 0.5) * region.step, -region.searchMm + (j + 0.5) * region.step);
-    };
-    for (int j = 0; j < n; ++j)
-        for (int i = 0; i < n; ++i)
-            if (tracer.land(gridPoint(i, j), d)) {
-                live[static_cast<size_t>(j) * n + i] = 1;
-                region.centre += gridPoint(i, j);
-                ++liveCount;
-            }
-    if (liveCount == 0) return;
-    region.centre /= double(liveCount);
-    if (!tracer.land(region.centre, d)) {  // not star-shaped about its centroid: the nearest live point
-        double best = 1e300;
-        glm::dvec2 nearest = region.centre;
+    glm::dvec2 gridCentre{0.0};
+    double halfExtent = region.searchMm;
+    int n = options.seedGrid;
+    for (int refinement = 0; refinement < 5; ++refinement) {
+        const double step = 2.0 * halfExtent / n;
+        std::vector<char> live(static_cast<size_t>(n) * n, 0);
+        int liveCount = 0;
+        glm::dvec2 centre{0.0};
+        auto gridPoint = [&](int i, int j) {
+            return gridCentre + glm::dvec2(-halfExtent + (i + 0.5) * step, -halfExtent + (j + 0.5) * step);
+        };
         for (int j = 0; j < n; ++j)
             for (int i = 0; i < n; ++i)
-                if (live[static_cast<size_t>(j) * n + i] && glm::length(gridPoint(i, j) - region.centre) < best)
-                    best = glm::length(gridPoint(i, j) - region.centre), nearest = gridPoint(i, j);
-        region.centre = nearest;
-    }
-    for (int j = 1; j + 1 < n; ++j)
-        for (int i = 1; i + 1 < n; ++i) {
-            auto at = [&](int a, int b) { return live[static_cast<size_t>(b) * n + a] != 0; };
-            if (at(i, j) && at(i - 1, j) && at(i + 1, j) && at(i, j - 1) && at(i, j + 1))
-                region.interior.push_back(gridPoint(i, j));
+                if (tracer.land(gridPoint(i, j), d)) {
+                    live[static_cast<size_t>(j) * n + i] = 1;
+                    centre += gridPoint(i, j);
+                    ++liveCount;
+                }
+        std::vector<glm::dvec2> interior;
+        for (int j = 1; j + 1 < n; ++j)
+            for (int i = 1; i + 1 < n; ++i) {
+                auto at = [&](int a, int b) { return live[static_cast<size_t>(b) * n + a] != 0; };
+                if (at(i, j) && at(i - 1, j) && at(i + 1, j) && at(i, j - 1) && at(i, j + 1)) interior.push_back(gridPoint(i, j));
+            }
+        if (liveCount == 0) {  // nothing: a twice finer grid over the same area
+            n *= 2;
+            continue;
         }
-    if (region.interior.empty()) region.interior.push_back(region.centre);
-    region.found = true;
+        centre /= double(liveCount);
+        if (interior.size() < 8 && refinement < 4) {  // too few cells inside: zoom onto the region
+            double reach = 0.0;
+            for (int j = 0; j < n; ++j)
+                for (int i = 0; i < n; ++i)
+                    if (live[static_cast<size_t>(j) * n + i]) reach = std::max(reach, glm::length(gridPoint(i, j) - centre));
+            gridCentre = centre;
+            halfExtent = reach + 2.0 * step;
+            n = options.seedGrid;
+            continue;
+        }
+        region.step = step;
+        region.centre = centre;
+        if (!tracer.land(region.centre, d)) {  // not star-shaped about its centroid: the nearest live point
+            double best = 1e300;
+            for (int j = 0; j < n; ++j)
+                for (int i = 0; i < n; ++i)
+                    if (live[static_cast<size_t>(j) * n + i] && glm::length(gridPoint(i, j) - centre) < best)
+                        best = glm::length(gridPoint(i, j) - centre), region.centre = gridPoint(i, j);
+        }
+        region.interior = interior.empty() ? std::vector<glm::dvec2>{region.centre} : interior;
+        region.found = true;
+        return;
+    }
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 
 #include <glm/geometric.hpp>
@@ -234,15 +235,28 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
         report.cropRadiusPx = radius;
         report.diffractedShare = cropEnergy.y / energyY;
 
-        const ApertureTransform aperture(outlines[l].outlineMm);
-        DiffractionPsf psf(aperture, lights[l].spectrum, outlines[l].pxPerRad);
+        // A degenerate pupil or map (a light at the edge of a fisheye's field) leaves the light
+        // undiffracted, with the reason, rather than failing the whole image.
+        std::optional<ApertureTransform> aperture;
+        std::optional<DiffractionPsf> psfStorage;
+        try {
+            aperture.emplace(outlines[l].outlineMm);
+            psfStorage.emplace(*aperture, lights[l].spectrum, outlines[l].pxPerRad);
+        } catch (const std::invalid_argument& e) {
+            report.why = std::string("no diffraction PSF: ") + e.what();
+            for (size_t i = 0; i < pixels; ++i)  // put the crop back
+                if (owner[i] == static_cast<int>(l)) std::copy_n(&directXyz[3 * i], 3, &result.xyz[3 * i]);
+            continue;
+        }
+        DiffractionPsf& psf = *psfStorage;
         const int window = std::max({options.minWindowPx, static_cast<int>(std::ceil(psf.coherentRadiusPx())) + 4,
-                                     static_cast<int>(std::ceil(options.windowPerCropRadius * radius))});
+                                     std::min(options.maxWindowPx,
+                                              static_cast<int>(std::ceil(options.windowPerCropRadius * radius)))});
         const std::vector<float> kernelXyz = psf.window(window);
         const double taperWidth = 0.5 * window, taperStart = window - taperWidth;
-        report.pupilAreaMm2 = aperture.areaMm2();
-        report.spikeEdges = static_cast<int>(aperture.spikeEdges().size());
-        report.smoothOutlineShare = aperture.smoothLengthMm() / aperture.perimeterMm();
+        report.pupilAreaMm2 = aperture->areaMm2();
+        report.spikeEdges = static_cast<int>(aperture->spikeEdges().size());
+        report.smoothOutlineShare = aperture->smoothLengthMm() / aperture->perimeterMm();
         report.wavelengths = static_cast<int>(psf.spectrum().size());
         report.windowRadiusPx = window;
         report.coherentRadiusPx = psf.coherentRadiusPx();
@@ -282,7 +296,7 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
                                                    spikes[s].transverseWidthPx[c]);
         // Row by row (each row's pixels get their additions in a fixed order: deterministic): the
         // halo everywhere, then each spike over the band of the row where its profile is not zero.
-        const bool halo = aperture.smoothLengthMm() > 0.0;
+        const bool halo = aperture->smoothLengthMm() > 0.0;
         tbb::parallel_for(0, height, [&](int y) {
             double rowY = 0.0;
             const size_t row = static_cast<size_t>(y) * width;

@@ -36,6 +36,9 @@ struct StarburstOptions {
     int maxCropRadiusPx = 128;
     int minWindowPx = 32;           // half-size of the near window, at least
     double windowPerCropRadius = 6.0;
+    // At most (a large light's crop then spans much of the window, and the far part's envelope
+    // varies across it: broad spikes of a broad light are approximate).
+    int maxWindowPx = 320;
 };
 
 // One light's diffraction, traced through the lens at the image's resolution.
