@@ -170,7 +170,16 @@ py::object sceneGhostReport(const Scene& scene, int light, const std::optional<s
     return ghostTable(*lens, direction, options, all);
 }
 
-py::dict preview(const Scene& scene, bool layers, int threads) {
+// The scene with its render.diffraction overridden when `diffraction` is given (the CLI's
+// --no-diffraction).
+Scene withDiffraction(const Scene& scene, std::optional<bool> diffraction) {
+    Scene copy = scene;
+    if (diffraction) copy.render.diffraction = *diffraction;
+    return copy;
+}
+
+py::dict preview(const Scene& sceneIn, bool layers, int threads, std::optional<bool> diffraction) {
+    const Scene scene = withDiffraction(sceneIn, diffraction);
     std::vector<ImageLayer> images;
     {
         py::gil_scoped_release release;
@@ -423,15 +432,18 @@ PYBIND11_MODULE(flare, m) {
         "a scene from JSON text; relative lens and data paths are resolved against base_dir");
 
     m.def("preview", &preview, py::arg("scene"), py::kw_only(), py::arg("layers") = false, py::arg("threads") = 0,
+          py::arg("diffraction") = py::none(),
           "The deterministic ghost preview, as `flare preview` (its per-ghost layers as with --float-layers): a dict "
           "of float32 arrays (height, width, 3), linear Rec.709 RGB in W/m2, keyed by EXR layer name: '' (the main "
-          "image), then with layers=True 'direct', 'ghost' and one per kept ghost ('ghost_03_07', ...)");
+          "image, with the starburst in place of the direct image when diffraction is on), then with layers=True "
+          "'direct', 'starburst', 'ghost' and one per kept ghost ('ghost_03_07', ...). diffraction: None takes the "
+          "scene's render.diffraction, False is --no-diffraction");
     m.def(
         "render",
         [](const Scene& scene, std::optional<std::int64_t> photons, std::optional<double> timeS, double targetError,
            std::optional<std::uint64_t> seed, int threads, const std::string& mode, bool layers,
            std::optional<int> maxBounces, const std::string& higherOrderChoice, const std::string& kernelChoice,
-           double radiusPx, int smoothNeighbours, std::optional<double> interiorAlbedo) {
+           double radiusPx, int smoothNeighbours, std::optional<double> interiorAlbedo, std::optional<bool> diffraction) {
             SceneRenderOverrides overrides;
             overrides.mode = renderMode(mode);
             overrides.seed = seed;
@@ -442,17 +454,20 @@ PYBIND11_MODULE(flare, m) {
             overrides.radiusPx = radiusPx;
             overrides.smoothNeighbours = smoothNeighbours;
             overrides.interiorAlbedo = interiorAlbedo;
-            return render(scene, RenderArguments{photons, timeS, targetError, threads}, overrides);
+            return render(withDiffraction(scene, diffraction), RenderArguments{photons, timeS, targetError, threads},
+                          overrides);
         },
         py::arg("scene"), py::kw_only(), py::arg("photons") = py::none(), py::arg("time_s") = py::none(),
         py::arg("target_error") = 0.02, py::arg("seed") = py::none(), py::arg("threads") = 0,
         py::arg("mode") = "guided", py::arg("layers") = false, py::arg("max_bounces") = py::none(),
         py::arg("higher_order") = "auto", py::arg("kernel") = "fixed", py::arg("radius_px") = 1.0,
-        py::arg("smooth_neighbours") = 256, py::arg("interior_albedo") = py::none(),
+        py::arg("smooth_neighbours") = 256, py::arg("interior_albedo") = py::none(), py::arg("diffraction") = py::none(),
         "The physically based render, as `flare render` with the same options and defaults (it stops at the target "
         "error, time_s or photons, whichever comes first; without either limit at the scene's photon count): a dict "
-        "of float32 arrays (height, width, 3) keyed by EXR layer name: '' (the sum), 'direct', 'ghost', 'higher', "
-        "'scatter', per-ghost and per-scatter-source layers with layers=True, then 'variance' when estimated. The "
+        "of float32 arrays (height, width, 3) keyed by EXR layer name: '' (the sum, the starburst in place of the "
+        "direct layer when diffraction is on), 'direct', 'ghost', 'higher', 'scatter', per-ghost and "
+        "per-scatter-source layers with layers=True, 'starburst' with diffraction, then 'variance' when estimated. "
+        "diffraction: None takes the scene's render.diffraction, False is --no-diffraction. The "
         "image depends on the seed, never on the thread count.");
     m.def(
         "compare",

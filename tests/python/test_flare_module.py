@@ -123,10 +123,18 @@ class FlareModuleTest(unittest.TestCase):
         expected = flare.read_exr(exr)
         self.assertEqual(images[""].shape, (HEIGHT_PX, WIDTH_PX, 3))
         self.assertIn("direct", images)
+        self.assertIn("starburst", images)
         self.assertIn("ghost", images)
-        self.assertGreater(len(images), 3)  # per-ghost layers
+        self.assertGreater(len(images), 4)  # per-ghost layers
         self.assertImagesEqual(images, expected)
         self.assertGreater(float(images["ghost"].sum()), 0.0)
+
+    def test_the_preview_without_diffraction_equals_the_cli_bit_for_bit(self):
+        images = flare.preview(self.scene, layers=True, diffraction=False)
+        exr = self.scratch_path("preview-geometric.exr")
+        run_cli("preview", self.scene_path, "-o", exr, "--layers", "--float-layers", "--quiet", "--no-diffraction")
+        self.assertNotIn("starburst", images)
+        self.assertImagesEqual(images, flare.read_exr(exr))
 
     def test_the_render_equals_the_cli_bit_for_bit_whatever_the_threads(self):
         images = flare.render(self.scene, photons=RENDER_PHOTONS, seed=7, threads=1, layers=True)
@@ -134,7 +142,7 @@ class FlareModuleTest(unittest.TestCase):
         run_cli("render", self.scene_path, "-o", exr, "--photons", str(RENDER_PHOTONS), "--seed", "7",
                 "--threads", "2", "--layers", "--quiet")
         expected = flare.read_exr(exr)
-        for name in ("", "direct", "ghost", "higher", "scatter", "variance"):
+        for name in ("", "direct", "ghost", "higher", "scatter", "starburst", "variance"):
             self.assertIn(name, images)
         self.assertImagesEqual(images, expected)
         self.assertGreater(float(images["ghost"].sum()), 0.0)
