@@ -114,6 +114,8 @@ public:
     double wavelengthNm() const { return indices_.wavelengthNm; }
 
 private:
+    friend class PacketTracer;  // runs the same steps in SIMD lanes
+
     struct Step {
         enum class Kind : std::uint8_t { Refract, Reflect, Stop, SensorEnd, SensorReflect, SensorWrongExit, WrongExit };
         Kind kind = Kind::Refract;
