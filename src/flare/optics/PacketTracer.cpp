@@ -27,9 +27,14 @@ struct PacketLanes {
     alignas(64) double fate[kPacketBatch];
     // Set by a vector step for rays it left unchanged for the scalar step (1), else 0.
     alignas(64) double deferred[kPacketBatch];
-    // The incidence cosine at a weighted step, for the Fresnel/coating factor.
+    // The incidence cosine at a weighted step, and 1 where its Fresnel/coating factor is left to
+    // the scalar code (no tables, or a cosine in the tables' exact zone).
     alignas(64) double cosine[kPacketBatch];
+    alignas(64) double scalarWeight[kPacketBatch];
 };
+
+// What a vector step left to the scalar code.
+inline constexpr int kDeferredRays = 1, kScalarWeights = 2;
 
 inline double fateCode(int step, TraceStatus status) { return 1.0 + static_cast<double>(status) + 8.0 * step; }
 
@@ -56,10 +61,31 @@ HWY_INLINE void Normalize(V& x, V& y, V& z) {
     z = hn::Mul(z, inverse);
 }
 
+// InterfaceTables::lookup for the lanes of `tabled` (the others give 0), in its order of operations.
+template <class D, class V = hn::Vec<D>>
+HWY_INLINE V LookupTable(D d, const detail::PacketStep& s, hn::Mask<D> tabled, V c) {
+    const hn::RebindToSigned<D> di;
+    const V x = hn::Mul(c, hn::Set(d, s.tableIntervals));
+    // Lanes outside the table (NaN, going nowhere) read entry 0.
+    const V i = hn::IfThenElseZero(tabled, hn::Min(hn::Floor(x), hn::Set(d, s.tableIntervals - 1.0)));
+    const auto index = hn::ConvertTo(di, i);
+    const V u = hn::Sub(x, i), h = hn::Set(d, 1.0 / s.tableIntervals);
+    const V u2 = hn::Mul(u, u), u3 = hn::Mul(u2, u);
+    const V two = hn::Set(d, 2.0), three = hn::Set(d, 3.0);
+    const V a = hn::Mul(hn::Add(hn::Sub(hn::Mul(two, u3), hn::Mul(three, u2)), hn::Set(d, 1.0)),
+                        hn::GatherIndex(d, s.tableValue, index));
+    const V b = hn::Mul(hn::Mul(hn::Add(hn::Sub(u3, hn::Mul(two, u2)), u), h), hn::GatherIndex(d, s.tableSlope, index));
+    const V e = hn::Mul(hn::Add(hn::Mul(hn::Set(d, -2.0), u3), hn::Mul(three, u2)), hn::GatherIndex(d, s.tableValue + 1, index));
+    const V f = hn::Mul(hn::Mul(hn::Sub(u3, u2), h), hn::GatherIndex(d, s.tableSlope + 1, index));
+    return hn::Add(hn::Add(hn::Add(a, b), e), f);
+}
+
 // One step for `count` rays (a multiple of the vector length): the operations of
 // BundleTracer::applyStep in the same order, with a ray's failure recorded in its fate. Rays
-// whose step needs the scalar code are left unchanged and marked deferred; returns whether any is.
-bool AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b, size_t count) {
+// whose step needs the scalar code are left unchanged and marked deferred, factors left to the
+// scalar code are marked in scalarWeight; returns which of the two happened (kDeferredRays,
+// kScalarWeights).
+int AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b, size_t count) {
     using Kind = detail::PacketStep::Kind;
     const hn::ScalableTag<double> d;
     using V = hn::Vec<decltype(d)>;
@@ -67,7 +93,7 @@ bool AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b
     const size_t lanes = hn::Lanes(d);
     const V zero = hn::Zero(d), one = hn::Set(d, 1.0), two = hn::Set(d, 2.0);
     const double base = detail::fateCode(step, TraceStatus::Ok);
-    bool anyDeferred = false;
+    int left = 0;
     for (size_t i = 0; i < count; i += lanes) {
         V fate = hn::Load(d, b.fate + i);
         M alive = hn::Eq(fate, zero);
@@ -85,8 +111,11 @@ bool AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b
         };
         if (hn::AllFalse(d, alive)) {
             hn::Store(zero, d, b.deferred + i);
+            hn::Store(zero, d, b.scalarWeight + i);
             continue;
         }
+        V factor = one;          // the Fresnel/coating factor from the tables
+        M tabled = alive;        // the lanes that have it
         const V ox = hn::Load(d, b.ox + i), oy = hn::Load(d, b.oy + i), oz = hn::Load(d, b.oz + i);
         V dx = hn::Load(d, b.dx + i), dy = hn::Load(d, b.dy + i), dz = hn::Load(d, b.dz + i);
         V px = ox, py = oy, pz = oz;
@@ -122,7 +151,8 @@ bool AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b
             defer(hn::Gt(hn::Abs(hn::Mul(c, qc)), hn::Set(d, kConicFarOrigin * kConicFarOrigin)));
             // solveQuadratic: the linear case (a = 0) and the cancellation-free roots.
             const M linear = hn::Eq(qa, zero);
-            const V tLinear = hn::Div(hn::Neg(qc), hn::Mul(two, qb));
+            // Only a plane (or a ray along a conic's axis at its vertex) is linear: skip the division.
+            const V tLinear = hn::AllFalse(d, linear) ? zero : hn::Div(hn::Neg(qc), hn::Mul(two, qb));
             const V disc = hn::Sub(hn::Mul(qb, qb), hn::Mul(qa, qc));
             const V q = hn::Neg(hn::Add(qb, hn::CopySign(hn::Sqrt(disc), qb)));
             const V r0 = hn::Div(q, qa);
@@ -167,7 +197,19 @@ bool AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b
                     Normalize(nx, ny, nz);
                 }
                 const V dot = hn::Add(hn::Add(hn::Mul(dx, nx), hn::Mul(dy, ny)), hn::Mul(dz, nz));
-                if (s.weighted) hn::Store(hn::Abs(dot), d, b.cosine + i);
+                if (s.weighted) {
+                    const V cosine = hn::Abs(dot);
+                    hn::Store(cosine, d, b.cosine + i);
+                    if (s.tableValue) {
+                        // std::clamp(cosine, 0, 1); NaN and the exact zone go to the scalar code.
+                        const V c = hn::IfThenElse(hn::Lt(cosine, zero), zero, hn::IfThenElse(hn::Lt(one, cosine), one, cosine));
+                        const M exact = hn::And(hn::Ge(c, hn::Set(d, s.tableExactFrom)), hn::Le(c, hn::Set(d, s.tableExactTo)));
+                        tabled = hn::AndNot(hn::Or(exact, hn::IsNaN(c)), alive);
+                        factor = LookupTable(d, s, tabled, c);
+                    } else {
+                        tabled = hn::FirstN(d, 0);
+                    }
+                }
                 if (s.reflect) {
                     const V k = hn::Mul(two, dot);
                     dx = hn::Sub(dx, hn::Mul(k, nx));
@@ -199,11 +241,18 @@ bool AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b
         hn::Store(hn::IfThenElse(alive, dx, hn::Load(d, b.dx + i)), d, b.dx + i);
         hn::Store(hn::IfThenElse(alive, dy, hn::Load(d, b.dy + i)), d, b.dy + i);
         hn::Store(hn::IfThenElse(alive, dz, hn::Load(d, b.dz + i)), d, b.dz + i);
+        if (s.weighted) {
+            const V w = hn::Load(d, b.throughput + i);
+            hn::Store(hn::IfThenElse(hn::And(alive, tabled), hn::Mul(w, factor), w), d, b.throughput + i);
+            const M scalarWeight = hn::AndNot(tabled, alive);
+            hn::Store(hn::IfThenElseZero(scalarWeight, one), d, b.scalarWeight + i);
+            if (!hn::AllFalse(d, scalarWeight)) left |= detail::kScalarWeights;
+        }
         hn::Store(fate, d, b.fate + i);
         hn::Store(hn::IfThenElseZero(deferred, one), d, b.deferred + i);
-        anyDeferred = anyDeferred || !hn::AllFalse(d, deferred);
+        if (!hn::AllFalse(d, deferred)) left |= detail::kDeferredRays;
     }
-    return anyDeferred;
+    return left;
 }
 
 const char* KernelTargetName() { return hwy::TargetName(HWY_TARGET); }
@@ -252,6 +301,14 @@ PacketTracer::PacketTracer(const BundleTracer& path) : path_(path) {
                 s.kind = bs.kind == Kind::Stop ? detail::PacketStep::Kind::Stop : detail::PacketStep::Kind::Conic;
                 s.reflect = bs.kind == Kind::Reflect;
                 s.weighted = bs.kind != Kind::Stop && bs.weighted;
+                if (s.weighted && path_.tables_) {
+                    const InterfaceTables::Table& t = path_.tables_->table(bs.surface, bs.direction, s.reflect);
+                    s.tableValue = t.value.data();
+                    s.tableSlope = t.slope.data();
+                    s.tableIntervals = path_.tables_->intervals_;
+                    s.tableExactFrom = t.exactFrom;
+                    s.tableExactTo = t.exactTo;
+                }
                 s.vertexZMm = surface.vertexZMm;
                 s.curvaturePerMm = surface.curvature();
                 s.conicFactor = 1.0 + surface.conic;
@@ -327,12 +384,12 @@ void PacketTracer::trace(const PupilGrid& grid, std::span<const glm::dvec2> pupi
                 scalarStep(path_, step, b, which, n);
                 continue;
             }
-            const bool anyDeferred = HWY_DYNAMIC_DISPATCH(AdvancePacket)(s, step, b, static_cast<size_t>(padded));
-            if (s.weighted) {
-                // The factors of BundleTracer, one ray at a time (deferred rays get theirs below).
+            const int left = HWY_DYNAMIC_DISPATCH(AdvancePacket)(s, step, b, static_cast<size_t>(padded));
+            if (left & detail::kScalarWeights) {
+                // BundleTracer's factors, one ray at a time (deferred rays get theirs below).
                 const InterfaceTables* tables = path_.tables_;
                 for (int i = 0; i < count; ++i) {
-                    if (b.fate[i] != 0.0 || (anyDeferred && b.deferred[i] != 0.0)) continue;
+                    if (b.scalarWeight[i] == 0.0) continue;
                     const double c = b.cosine[i];
                     if (tables)
                         b.throughput[i] *= s.reflect ? tables->reflectance(s.surface, s.direction, c)
@@ -343,7 +400,7 @@ void PacketTracer::trace(const PupilGrid& grid, std::span<const glm::dvec2> pupi
                     }
                 }
             }
-            if (anyDeferred) {
+            if (left & detail::kDeferredRays) {
                 for (int i = 0; i < count; ++i)
                     if (b.deferred[i] != 0.0) which[n++] = i;
                 scalarStep(path_, step, b, which, n);

@@ -8,8 +8,10 @@
 //
 // Spheres, conics and planes are traced in the vector lanes; aspheres, the few rays whose origin
 // is too far from a conic for its quadratic (intersectConicFromAfar) and rays near the blades of
-// a polygonal iris take BundleTracer's scalar step for that event. Fresnel/coating factors come
-// from the same functions as BundleTracer's, one lane at a time.
+// a polygonal iris take BundleTracer's scalar step for that event. Fresnel/coating factors from
+// InterfaceTables are interpolated in the lanes with the same operations as the tables' own
+// lookup; the exact responses (no tables, or a cosine near total internal reflection) are
+// evaluated one lane at a time.
 #pragma once
 
 #include <cstdint>
@@ -48,6 +50,11 @@ struct PacketStep {
     double irisInner2Mm2 = 0.0;   // Stop: squared radius within which every point passes
     double irisOuter2Mm2 = 0.0;   // Stop: beyond it none passes (between: the scalar test)
     double sensorZMm = 0.0, halfWidthMm = 0.0, halfHeightMm = 0.0, sensorReflectance = 1.0;
+    // Conic, weighted, with InterfaceTables: the factor's table (values and slopes at cos = i /
+    // intervals), looked up in the lanes; cosines in [exactFrom, exactTo] get the exact response.
+    const double* tableValue = nullptr;
+    const double* tableSlope = nullptr;
+    double tableIntervals = 0.0, tableExactFrom = 2.0, tableExactTo = -1.0;
 };
 
 }  // namespace detail
