@@ -85,6 +85,10 @@ HWY_INLINE V LookupTable(D d, const detail::PacketStep& s, hn::Mask<D> tabled, V
 // whose step needs the scalar code are left unchanged and marked deferred, factors left to the
 // scalar code are marked in scalarWeight; returns which of the two happened (kDeferredRays,
 // kScalarWeights).
+//
+// A refraction runs as two loops over the batch, the intersection and then the new direction:
+// each iteration's chain of divisions and square roots is then short enough for the processor
+// to overlap several iterations (one loop doing both was bound by their latency).
 int AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b, size_t count) {
     using Kind = detail::PacketStep::Kind;
     const hn::ScalableTag<double> d;
@@ -94,6 +98,8 @@ int AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b,
     const V zero = hn::Zero(d), one = hn::Set(d, 1.0), two = hn::Set(d, 2.0);
     const double base = detail::fateCode(step, TraceStatus::Ok);
     int left = 0;
+
+    // Pass 1: where each ray meets the surface (the sensor: all of that step), and the clipping.
     for (size_t i = 0; i < count; i += lanes) {
         V fate = hn::Load(d, b.fate + i);
         M alive = hn::Eq(fate, zero);
@@ -111,13 +117,10 @@ int AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b,
         };
         if (hn::AllFalse(d, alive)) {
             hn::Store(zero, d, b.deferred + i);
-            hn::Store(zero, d, b.scalarWeight + i);
             continue;
         }
-        V factor = one;          // the Fresnel/coating factor from the tables
-        M tabled = alive;        // the lanes that have it
         const V ox = hn::Load(d, b.ox + i), oy = hn::Load(d, b.oy + i), oz = hn::Load(d, b.oz + i);
-        V dx = hn::Load(d, b.dx + i), dy = hn::Load(d, b.dy + i), dz = hn::Load(d, b.dz + i);
+        const V dx = hn::Load(d, b.dx + i), dy = hn::Load(d, b.dy + i), dz = hn::Load(d, b.dz + i);
         V px = ox, py = oy, pz = oz;
 
         if (s.kind == Kind::Sensor) {
@@ -132,9 +135,9 @@ int AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b,
                      TraceStatus::Vignetted);
                 // reflect(direction, (0, 0, 1)), with its multiplications by the normal's zeros.
                 const V k = hn::Mul(two, hn::Add(hn::Add(hn::Mul(dx, zero), hn::Mul(dy, zero)), hn::Mul(dz, one)));
-                dx = hn::Sub(dx, hn::Mul(k, zero));
-                dy = hn::Sub(dy, hn::Mul(k, zero));
-                dz = hn::Sub(dz, hn::Mul(k, one));
+                hn::Store(hn::IfThenElse(alive, hn::Sub(dx, hn::Mul(k, zero)), dx), d, b.dx + i);
+                hn::Store(hn::IfThenElse(alive, hn::Sub(dy, hn::Mul(k, zero)), dy), d, b.dy + i);
+                hn::Store(hn::IfThenElse(alive, hn::Sub(dz, hn::Mul(k, one)), dz), d, b.dz + i);
                 if (s.sensorWeighted) {
                     const V w = hn::Load(d, b.throughput + i);
                     hn::Store(hn::IfThenElse(alive, hn::Mul(w, hn::Set(d, s.sensorReflectance)), w), d, b.throughput + i);
@@ -171,7 +174,6 @@ int AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b,
             py = hn::Add(oy, hn::Mul(t, dy));
             pz = hn::Add(oz, hn::Mul(t, dz));
             const V r2 = hn::Add(hn::Mul(px, px), hn::Mul(py, py));
-
             if (s.kind == Kind::Stop) {
                 if (s.roundIris) {
                     fail(hn::Not(hn::Le(r2, hn::Set(d, s.irisInner2Mm2))), TraceStatus::BlockedByIris);
@@ -181,66 +183,89 @@ int AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b,
                 }
             } else {
                 fail(hn::Gt(r2, hn::Set(d, s.aperture2Mm2)), TraceStatus::Vignetted);
-                V nx = zero, ny = zero, nz = one;
-                if (s.normal == detail::PacketStep::Normal::Sphere) {
-                    const V radius = hn::Set(d, s.radiusMm);
-                    nx = hn::Div(hn::Sub(zero, px), radius);
-                    ny = hn::Div(hn::Sub(zero, py), radius);
-                    nz = hn::Div(hn::Sub(hn::Set(d, s.centreZMm), pz), radius);
-                } else if (s.normal == detail::PacketStep::Normal::Conic) {
-                    // Surface::sagSlope (its polynomial terms, all zero, add +0) and normalAt.
-                    const V q2 = hn::Sub(one, hn::Mul(hn::Set(d, s.conicFactor * s.curvaturePerMm * s.curvaturePerMm), r2));
-                    V slope = hn::IfThenElse(hn::Gt(q2, zero), hn::Div(hn::Set(d, 0.5 * s.curvaturePerMm), hn::Sqrt(q2)), zero);
-                    slope = hn::Mul(hn::Set(d, -2.0), hn::Add(slope, zero));
-                    nx = hn::Mul(slope, px);
-                    ny = hn::Mul(slope, py);
-                    Normalize(nx, ny, nz);
-                }
-                const V dot = hn::Add(hn::Add(hn::Mul(dx, nx), hn::Mul(dy, ny)), hn::Mul(dz, nz));
-                if (s.weighted) {
-                    const V cosine = hn::Abs(dot);
-                    hn::Store(cosine, d, b.cosine + i);
-                    if (s.tableValue) {
-                        // std::clamp(cosine, 0, 1); NaN and the exact zone go to the scalar code.
-                        const V c = hn::IfThenElse(hn::Lt(cosine, zero), zero, hn::IfThenElse(hn::Lt(one, cosine), one, cosine));
-                        const M exact = hn::And(hn::Ge(c, hn::Set(d, s.tableExactFrom)), hn::Le(c, hn::Set(d, s.tableExactTo)));
-                        tabled = hn::AndNot(hn::Or(exact, hn::IsNaN(c)), alive);
-                        factor = LookupTable(d, s, tabled, c);
-                    } else {
-                        tabled = hn::FirstN(d, 0);
-                    }
-                }
-                if (s.reflect) {
-                    const V k = hn::Mul(two, dot);
-                    dx = hn::Sub(dx, hn::Mul(k, nx));
-                    dy = hn::Sub(dy, hn::Mul(k, ny));
-                    dz = hn::Sub(dz, hn::Mul(k, nz));
-                } else {
-                    // refract(): the normal turned against the ray, Snell, total internal reflection.
-                    V cosI = hn::Neg(dot);
-                    const M flip = hn::Lt(cosI, zero);
-                    nx = hn::IfThenElse(flip, hn::Neg(nx), nx);
-                    ny = hn::IfThenElse(flip, hn::Neg(ny), ny);
-                    nz = hn::IfThenElse(flip, hn::Neg(nz), nz);
-                    cosI = hn::IfThenElse(flip, hn::Neg(cosI), cosI);
-                    const V eta = hn::Set(d, s.eta);
-                    const V sin2I = hn::Sub(one, hn::Mul(cosI, cosI));
-                    const V sin2T = hn::Mul(hn::Set(d, s.eta * s.eta), hn::IfThenElse(hn::Lt(zero, sin2I), sin2I, zero));
-                    fail(hn::Ge(sin2T, one), TraceStatus::TotalInternalReflection);
-                    const V k = hn::Sub(hn::Mul(eta, cosI), hn::Sqrt(hn::Sub(one, sin2T)));
-                    dx = hn::Add(hn::Mul(eta, dx), hn::Mul(k, nx));
-                    dy = hn::Add(hn::Mul(eta, dy), hn::Mul(k, ny));
-                    dz = hn::Add(hn::Mul(eta, dz), hn::Mul(k, nz));
-                }
-                Normalize(dx, dy, dz);
             }
         }
         hn::Store(hn::IfThenElse(alive, px, ox), d, b.ox + i);
         hn::Store(hn::IfThenElse(alive, py, oy), d, b.oy + i);
         hn::Store(hn::IfThenElse(alive, pz, oz), d, b.oz + i);
-        hn::Store(hn::IfThenElse(alive, dx, hn::Load(d, b.dx + i)), d, b.dx + i);
-        hn::Store(hn::IfThenElse(alive, dy, hn::Load(d, b.dy + i)), d, b.dy + i);
-        hn::Store(hn::IfThenElse(alive, dz, hn::Load(d, b.dz + i)), d, b.dz + i);
+        hn::Store(fate, d, b.fate + i);
+        hn::Store(hn::IfThenElseZero(deferred, one), d, b.deferred + i);
+        if (!hn::AllFalse(d, deferred)) left |= detail::kDeferredRays;
+    }
+    if (s.kind != Kind::Conic) return left;
+
+    // Pass 2: the normal at the hit, the factor and the reflected or refracted direction.
+    for (size_t i = 0; i < count; i += lanes) {
+        V fate = hn::Load(d, b.fate + i);
+        M alive = hn::AndNot(hn::Eq(hn::Load(d, b.deferred + i), one), hn::Eq(fate, zero));
+        if (hn::AllFalse(d, alive)) {
+            hn::Store(zero, d, b.scalarWeight + i);
+            continue;
+        }
+        const V px = hn::Load(d, b.ox + i), py = hn::Load(d, b.oy + i), pz = hn::Load(d, b.oz + i);
+        const V dx0 = hn::Load(d, b.dx + i), dy0 = hn::Load(d, b.dy + i), dz0 = hn::Load(d, b.dz + i);
+        V dx = dx0, dy = dy0, dz = dz0;
+        V nx = zero, ny = zero, nz = one;
+        if (s.normal == detail::PacketStep::Normal::Sphere) {
+            const V radius = hn::Set(d, s.radiusMm);
+            nx = hn::Div(hn::Sub(zero, px), radius);
+            ny = hn::Div(hn::Sub(zero, py), radius);
+            nz = hn::Div(hn::Sub(hn::Set(d, s.centreZMm), pz), radius);
+        } else if (s.normal == detail::PacketStep::Normal::Conic) {
+            // Surface::sagSlope (its polynomial terms, all zero, add +0) and normalAt.
+            const V r2 = hn::Add(hn::Mul(px, px), hn::Mul(py, py));
+            const V q2 = hn::Sub(one, hn::Mul(hn::Set(d, s.conicFactor * s.curvaturePerMm * s.curvaturePerMm), r2));
+            V slope = hn::IfThenElse(hn::Gt(q2, zero), hn::Div(hn::Set(d, 0.5 * s.curvaturePerMm), hn::Sqrt(q2)), zero);
+            slope = hn::Mul(hn::Set(d, -2.0), hn::Add(slope, zero));
+            nx = hn::Mul(slope, px);
+            ny = hn::Mul(slope, py);
+            Normalize(nx, ny, nz);
+        }
+        const V dot = hn::Add(hn::Add(hn::Mul(dx, nx), hn::Mul(dy, ny)), hn::Mul(dz, nz));
+        V factor = one;  // the Fresnel/coating factor from the tables
+        M tabled = alive;  // the lanes that have it
+        if (s.weighted) {
+            const V cosine = hn::Abs(dot);
+            hn::Store(cosine, d, b.cosine + i);
+            if (s.tableValue) {
+                // std::clamp(cosine, 0, 1); NaN and the exact zone go to the scalar code.
+                const V c = hn::IfThenElse(hn::Lt(cosine, zero), zero, hn::IfThenElse(hn::Lt(one, cosine), one, cosine));
+                const M exact = hn::And(hn::Ge(c, hn::Set(d, s.tableExactFrom)), hn::Le(c, hn::Set(d, s.tableExactTo)));
+                tabled = hn::AndNot(hn::Or(exact, hn::IsNaN(c)), alive);
+                factor = LookupTable(d, s, tabled, c);
+            } else {
+                tabled = hn::FirstN(d, 0);
+            }
+        }
+        if (s.reflect) {
+            const V k = hn::Mul(two, dot);
+            dx = hn::Sub(dx, hn::Mul(k, nx));
+            dy = hn::Sub(dy, hn::Mul(k, ny));
+            dz = hn::Sub(dz, hn::Mul(k, nz));
+        } else {
+            // refract(): the normal turned against the ray, Snell, total internal reflection.
+            V cosI = hn::Neg(dot);
+            const M flip = hn::Lt(cosI, zero);
+            nx = hn::IfThenElse(flip, hn::Neg(nx), nx);
+            ny = hn::IfThenElse(flip, hn::Neg(ny), ny);
+            nz = hn::IfThenElse(flip, hn::Neg(nz), nz);
+            cosI = hn::IfThenElse(flip, hn::Neg(cosI), cosI);
+            const V eta = hn::Set(d, s.eta);
+            const V sin2I = hn::Sub(one, hn::Mul(cosI, cosI));
+            const V sin2T = hn::Mul(hn::Set(d, s.eta * s.eta), hn::IfThenElse(hn::Lt(zero, sin2I), sin2I, zero));
+            const M tir = hn::And(hn::Ge(sin2T, one), alive);
+            fate = hn::IfThenElse(tir, hn::Set(d, base + static_cast<double>(TraceStatus::TotalInternalReflection)), fate);
+            alive = hn::AndNot(tir, alive);
+            const V k = hn::Sub(hn::Mul(eta, cosI), hn::Sqrt(hn::Sub(one, sin2T)));
+            dx = hn::Add(hn::Mul(eta, dx), hn::Mul(k, nx));
+            dy = hn::Add(hn::Mul(eta, dy), hn::Mul(k, ny));
+            dz = hn::Add(hn::Mul(eta, dz), hn::Mul(k, nz));
+        }
+        Normalize(dx, dy, dz);
+        hn::Store(hn::IfThenElse(alive, dx, dx0), d, b.dx + i);
+        hn::Store(hn::IfThenElse(alive, dy, dy0), d, b.dy + i);
+        hn::Store(hn::IfThenElse(alive, dz, dz0), d, b.dz + i);
+        hn::Store(fate, d, b.fate + i);
         if (s.weighted) {
             const V w = hn::Load(d, b.throughput + i);
             hn::Store(hn::IfThenElse(hn::And(alive, tabled), hn::Mul(w, factor), w), d, b.throughput + i);
@@ -248,9 +273,6 @@ int AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b,
             hn::Store(hn::IfThenElseZero(scalarWeight, one), d, b.scalarWeight + i);
             if (!hn::AllFalse(d, scalarWeight)) left |= detail::kScalarWeights;
         }
-        hn::Store(fate, d, b.fate + i);
-        hn::Store(hn::IfThenElseZero(deferred, one), d, b.deferred + i);
-        if (!hn::AllFalse(d, deferred)) left |= detail::kDeferredRays;
     }
     return left;
 }
