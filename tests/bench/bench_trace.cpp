@@ -9,6 +9,7 @@
 
 #include <benchmark/benchmark.h>
 #include <glm/geometric.hpp>
+#include <hwy/targets.h>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
@@ -149,6 +150,33 @@ void BM_TraceParallelRays(benchmark::State& state) {
 BENCHMARK(BM_TraceParallelRays<ParallelTracer::TracePath>)->ArgNames({"ghost", "fresnel"})->ArgsProduct({{0, 1}, {0, 1}});
 BENCHMARK(BM_TraceParallelRays<ParallelTracer::Bundle>)->ArgNames({"ghost", "fresnel"})->ArgsProduct({{0, 1}, {0, 1}});
 BENCHMARK(BM_TraceParallelRays<ParallelTracer::Packet>)->ArgNames({"ghost", "fresnel"})->ArgsProduct({{0, 1}, {0, 1}});
+
+// The packet tracer's direct path, geometry only, on each instruction set that this processor
+// runs and Highway compiled (the argument indexes them, best first; the label names it).
+void BM_PacketTracerPerTarget(benchmark::State& state) {
+    const std::vector<std::int64_t> targets = hwy::SupportedAndGeneratedTargets();
+    if (static_cast<size_t>(state.range(0)) >= targets.size()) {
+        state.SkipWithError("no such instruction set here");
+        return;
+    }
+    hwy::SetSupportedTargetsForTest(targets[state.range(0)]);
+    const LensSystem& lens = doubleGauss();
+    const SpectralIndices idx = lens.indicesAt(550.0);
+    const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(3.0, 4.0));
+    const std::vector<glm::dvec2> points = makePupilPoints(grid, lens.surface(0).semiApertureMm, 4096);
+    const PacketTracer packet(BundleTracer(lens, idx, {}, false));
+    std::vector<BundleLanding> landings(points.size());
+    for (auto _ : state) {
+        packet.trace(grid, points, landings);
+        benchmark::DoNotOptimize(landings.data());
+        benchmark::ClobberMemory();
+    }
+    const double rays = static_cast<double>(state.iterations()) * static_cast<double>(points.size());
+    state.counters["rays/s"] = benchmark::Counter(rays, benchmark::Counter::kIsRate);
+    state.SetLabel(PacketTracer::targetName());
+    hwy::SetSupportedTargetsForTest(0);
+}
+BENCHMARK(BM_PacketTracerPerTarget)->DenseRange(0, 4);
 
 }  // namespace
 
