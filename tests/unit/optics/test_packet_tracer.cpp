@@ -3,7 +3,9 @@
 // the direct path and ghost paths, geometry only and with Fresnel/coating factors, rays that land
 // and rays that fail in every way, and the cases its vector lanes hand to the scalar step
 // (aspheres, far origins, the blades of a polygonal iris) as well as conics and a round iris.
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -162,6 +164,36 @@ TEST(PacketTracer, FarOriginsEqualTracePath) {
         const PacketTracer tracer(BundleTracer(lens, indices, {}, true));
         expectEqualsTracePath(tracer, grid, points, {}, true, target, &seen);
         EXPECT_GT(seen[TraceStatus::Ok], 20) << target;
+    });
+}
+
+// Pupil points that are not finite, far outside the lens, or on the edge of an aperture: every
+// lane ends as tracePath's does, and nothing non-finite reaches a landing that is ok.
+TEST(PacketTracer, NonFiniteFarAndEdgeRaysEqualTracePath) {
+    const LensSystem lens = test::loadLens("lenses/wide-angle-28mm.lens");
+    const SpectralIndices indices = lens.indicesAt(550.0);
+    const InterfaceTables tables(lens, indices);
+    const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(0.0, 0.0));
+    const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+    const double edge = lens.surface(0).semiApertureMm;
+    std::vector<glm::dvec2> points = {{nan, 0.0}, {0.0, nan}, {inf, 0.0}, {-inf, inf}, {1e300, -1e300},
+                                      {1e154, 0.0}, {0.0, 0.0}, {-0.0, -0.0}, {edge, 0.0}, {0.0, -edge},
+                                      {std::nextafter(edge, 0.0), 0.0}, {std::nextafter(edge, 2 * edge), 0.0},
+                                      {edge * 0.6, edge * 0.8}, {1e-300, -1e-300}};
+    forEachTarget([&](const std::string& target) {
+        for (const GhostPath& ghost : {GhostPath{}, GhostPath{{5, 2}}}) {
+            expectEqualsTracePath(PacketTracer(BundleTracer(lens, indices, ghost.reflections, true)), grid, points,
+                                  ghost.reflections, true, target + " " + ghost.label(), nullptr);
+            const BundleTracer bundle(lens, indices, ghost.reflections, true, &tables);
+            std::vector<BundleLanding> expected(points.size()), landings(points.size());
+            bundle.trace(grid, points, expected);
+            PacketTracer(bundle).trace(grid, points, landings);
+            for (size_t i = 0; i < points.size(); ++i) {
+                ASSERT_EQ(landings[i].status, expected[i].status) << target << " point " << i;
+                ASSERT_EQ(landings[i].throughput, expected[i].throughput) << target << " point " << i;
+                if (landings[i].ok()) ASSERT_TRUE(std::isfinite(landings[i].sensorMm.x + landings[i].sensorMm.y));
+            }
+        }
     });
 }
 
