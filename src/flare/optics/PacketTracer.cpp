@@ -33,8 +33,12 @@ struct PacketLanes {
     alignas(64) double scalarWeight[kPacketBatch];
 };
 
-// What a vector step left to the scalar code.
+// What a vector step left to the scalar code (flags), and how many rays it left going.
 inline constexpr int kDeferredRays = 1, kScalarWeights = 2;
+struct PacketStepResult {
+    int left = 0;
+    int going = 0;  // not counting the deferred rays
+};
 
 inline double fateCode(int step, TraceStatus status) { return 1.0 + static_cast<double>(status) + 8.0 * step; }
 
@@ -84,12 +88,12 @@ HWY_INLINE V LookupTable(D d, const detail::PacketStep& s, hn::Mask<D> tabled, V
 // BundleTracer::applyStep in the same order, with a ray's failure recorded in its fate. Rays
 // whose step needs the scalar code are left unchanged and marked deferred, factors left to the
 // scalar code are marked in scalarWeight; returns which of the two happened (kDeferredRays,
-// kScalarWeights).
+// kScalarWeights) and how many rays it left going.
 //
 // A refraction runs as two loops over the batch, the intersection and then the new direction:
 // each iteration's chain of divisions and square roots is then short enough for the processor
 // to overlap several iterations (one loop doing both was bound by their latency).
-int AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b, size_t count) {
+detail::PacketStepResult AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b, size_t count) {
     using Kind = detail::PacketStep::Kind;
     const hn::ScalableTag<double> d;
     using V = hn::Vec<decltype(d)>;
@@ -98,6 +102,7 @@ int AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b,
     const V zero = hn::Zero(d), one = hn::Set(d, 1.0), two = hn::Set(d, 2.0);
     const double base = detail::fateCode(step, TraceStatus::Ok);
     int left = 0;
+    size_t going = 0;
 
     // Pass 1: where each ray meets the surface (the sensor: all of that step), and the clipping.
     for (size_t i = 0; i < count; i += lanes) {
@@ -191,8 +196,9 @@ int AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b,
         hn::Store(fate, d, b.fate + i);
         hn::Store(hn::IfThenElseZero(deferred, one), d, b.deferred + i);
         if (!hn::AllFalse(d, deferred)) left |= detail::kDeferredRays;
+        if (s.kind != Kind::Conic) going += hn::CountTrue(d, alive);
     }
-    if (s.kind != Kind::Conic) return left;
+    if (s.kind != Kind::Conic) return {left, static_cast<int>(going)};
 
     // Pass 2: the normal at the hit, the factor and the reflected or refracted direction.
     for (size_t i = 0; i < count; i += lanes) {
@@ -273,8 +279,9 @@ int AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b,
             hn::Store(hn::IfThenElseZero(scalarWeight, one), d, b.scalarWeight + i);
             if (!hn::AllFalse(d, scalarWeight)) left |= detail::kScalarWeights;
         }
+        going += hn::CountTrue(d, alive);
     }
-    return left;
+    return {left, static_cast<int>(going)};
 }
 
 const char* KernelTargetName() { return hwy::TargetName(HWY_TARGET); }
@@ -354,8 +361,9 @@ PacketTracer::PacketTracer(const BundleTracer& path) : path_(path) {
 
 namespace {
 
-// BundleTracer's own step for the listed rays of a batch (all going), written back into the lanes.
-void scalarStep(const BundleTracer& path, int step, detail::PacketLanes& b, const int* which, int count) {
+// BundleTracer's own step for the listed rays of a batch (all going), written back into the lanes;
+// returns how many are still going.
+int scalarStep(const BundleTracer& path, int step, detail::PacketLanes& b, const int* which, int count) {
     BundleRay rays[detail::kPacketBatch];
     StepOutcome outcomes[detail::kPacketBatch];
     for (int j = 0; j < count; ++j) {
@@ -363,85 +371,115 @@ void scalarStep(const BundleTracer& path, int step, detail::PacketLanes& b, cons
         rays[j] = {{{b.ox[i], b.oy[i], b.oz[i]}, {b.dx[i], b.dy[i], b.dz[i]}}, b.throughput[i]};
     }
     path.advance(step, std::span<BundleRay>(rays, count), std::span<StepOutcome>(outcomes, count), false);
+    int going = 0;
     for (int j = 0; j < count; ++j) {
         const int i = which[j];
         if (!outcomes[j].alive) {
             b.fate[i] = detail::fateCode(step, outcomes[j].failure);
             continue;
         }
+        ++going;
         const Ray& r = rays[j].ray;
         b.ox[i] = r.originMm.x, b.oy[i] = r.originMm.y, b.oz[i] = r.originMm.z;
         b.dx[i] = r.direction.x, b.dy[i] = r.direction.y, b.dz[i] = r.direction.z;
         b.throughput[i] = rays[j].throughput;
     }
+    return going;
 }
 
 }  // namespace
 
 void PacketTracer::trace(const PupilGrid& grid, std::span<const glm::dvec2> pupilMm, std::span<BundleLanding> out) const {
+    constexpr int kLanes = detail::kPacketMaxLanes;
     detail::PacketLanes b;
     int which[detail::kPacketBatch];
+    int index[detail::kPacketBatch];  // the input of each lane, −1 for padding
     const LensSystem& lens = *path_.lens_;
     for (size_t begin = 0; begin < pupilMm.size(); begin += detail::kPacketBatch) {
         const int count = static_cast<int>(std::min<size_t>(detail::kPacketBatch, pupilMm.size() - begin));
-        const int padded = (count + detail::kPacketMaxLanes - 1) / detail::kPacketMaxLanes * detail::kPacketMaxLanes;
-        for (int i = 0; i < padded; ++i) {
+        int active = (count + kLanes - 1) / kLanes * kLanes;  // lanes in use, whole vectors
+        for (int i = 0; i < active; ++i) {
             const Ray r = i < count ? grid.ray(pupilMm[begin + i].x, pupilMm[begin + i].y) : Ray{};
             b.ox[i] = r.originMm.x, b.oy[i] = r.originMm.y, b.oz[i] = r.originMm.z;
             b.dx[i] = r.direction.x, b.dy[i] = r.direction.y, b.dz[i] = r.direction.z;
             b.throughput[i] = 1.0;
             b.fate[i] = i < count ? 0.0 : 1.0;  // padding lanes never run
+            index[i] = i < count ? i : -1;
         }
-        for (int step = 0; step < static_cast<int>(steps_.size()); ++step) {
-            const detail::PacketStep& s = steps_[step];
-            if (s.kind == detail::PacketStep::Kind::WrongExit) {
-                for (int i = 0; i < count; ++i)
-                    if (b.fate[i] == 0.0) b.fate[i] = detail::fateCode(step, TraceStatus::WrongExit);
-                continue;
-            }
-            int n = 0;
-            if (s.kind == detail::PacketStep::Kind::Scalar) {
-                for (int i = 0; i < count; ++i)
-                    if (b.fate[i] == 0.0) which[n++] = i;
-                scalarStep(path_, step, b, which, n);
-                continue;
-            }
-            const int left = HWY_DYNAMIC_DISPATCH(AdvancePacket)(s, step, b, static_cast<size_t>(padded));
-            if (left & detail::kScalarWeights) {
-                // BundleTracer's factors, one ray at a time (deferred rays get theirs below).
-                const InterfaceTables* tables = path_.tables_;
-                for (int i = 0; i < count; ++i) {
-                    if (b.scalarWeight[i] == 0.0) continue;
-                    const double c = b.cosine[i];
-                    if (tables)
-                        b.throughput[i] *= s.reflect ? tables->reflectance(s.surface, s.direction, c)
-                                                     : tables->transmittance(s.surface, s.direction, c);
-                    else {
-                        const FresnelTerms f = interfaceResponse(lens, path_.indices_, s.surface, s.direction, c);
-                        b.throughput[i] *= s.reflect ? f.reflectance() : f.transmittance();
-                    }
-                }
-            }
-            if (left & detail::kDeferredRays) {
-                for (int i = 0; i < count; ++i)
-                    if (b.deferred[i] != 0.0) which[n++] = i;
-                scalarStep(path_, step, b, which, n);
-            }
-        }
-        for (int i = 0; i < count; ++i) {
-            BundleLanding& o = out[begin + i];
+        auto land = [&](int i) {
+            if (index[i] < 0) return;
+            BundleLanding& o = out[begin + index[i]];
             o = BundleLanding{};
             if (b.fate[i] == 0.0) {
                 o.sensorMm = {b.ox[i], b.oy[i]};
                 o.throughput = b.throughput[i];
                 o.status = TraceStatus::Ok;
                 o.surface = lens.surfaceCount();
-                continue;
+                return;
             }
             const int code = static_cast<int>(b.fate[i]) - 1;
             o.status = static_cast<TraceStatus>(code % 8);
             o.surface = path_.stepSurface(code / 8);
+        };
+        for (int step = 0; step < static_cast<int>(steps_.size()); ++step) {
+            const detail::PacketStep& s = steps_[step];
+            int n = 0, going = 0;
+            if (s.kind == detail::PacketStep::Kind::WrongExit) {
+                for (int i = 0; i < active; ++i)
+                    if (b.fate[i] == 0.0) b.fate[i] = detail::fateCode(step, TraceStatus::WrongExit);
+            } else if (s.kind == detail::PacketStep::Kind::Scalar) {
+                for (int i = 0; i < active; ++i)
+                    if (b.fate[i] == 0.0) which[n++] = i;
+                going = scalarStep(path_, step, b, which, n);
+            } else {
+                const detail::PacketStepResult result =
+                    HWY_DYNAMIC_DISPATCH(AdvancePacket)(s, step, b, static_cast<size_t>(active));
+                going = result.going;
+                if (result.left & detail::kScalarWeights) {
+                    // BundleTracer's factors, one ray at a time (deferred rays get theirs below).
+                    const InterfaceTables* tables = path_.tables_;
+                    for (int i = 0; i < active; ++i) {
+                        if (b.scalarWeight[i] == 0.0) continue;
+                        const double c = b.cosine[i];
+                        if (tables)
+                            b.throughput[i] *= s.reflect ? tables->reflectance(s.surface, s.direction, c)
+                                                         : tables->transmittance(s.surface, s.direction, c);
+                        else {
+                            const FresnelTerms f = interfaceResponse(lens, path_.indices_, s.surface, s.direction, c);
+                            b.throughput[i] *= s.reflect ? f.reflectance() : f.transmittance();
+                        }
+                    }
+                }
+                if (result.left & detail::kDeferredRays) {
+                    for (int i = 0; i < active; ++i)
+                        if (b.deferred[i] != 0.0) which[n++] = i;
+                    going += scalarStep(path_, step, b, which, n);
+                }
+            }
+            // A ghost path loses most rays within a few steps: once a quarter of the lanes are
+            // dead, the ended rays land and the going ones move together, so that later steps
+            // run fewer vectors (moving a ray costs far less than a step).
+            const int needed = (going + kLanes - 1) / kLanes * kLanes;
+            if (4 * needed > 3 * active) continue;
+            int m = 0;
+            for (int i = 0; i < active; ++i) {
+                if (b.fate[i] != 0.0) {
+                    land(i);
+                    continue;
+                }
+                b.ox[m] = b.ox[i], b.oy[m] = b.oy[i], b.oz[m] = b.oz[i];
+                b.dx[m] = b.dx[i], b.dy[m] = b.dy[i], b.dz[m] = b.dz[i];
+                b.throughput[m] = b.throughput[i];
+                b.fate[m] = 0.0;
+                index[m++] = index[i];
+            }
+            for (; m < needed; ++m) {
+                b.fate[m] = 1.0;
+                index[m] = -1;
+            }
+            active = needed;
         }
+        for (int i = 0; i < active; ++i) land(i);
     }
 }
 
