@@ -13,7 +13,7 @@
 #define FLARE_OPTICS_PACKET_TRACER_LANES
 namespace flare::detail {
 
-// Rays per batch: every array of the batch stays in L1 (10 × 1 KiB), and the kernel's loop over
+// Rays per batch: every array of the batch stays in L1 (11 × 1 KiB), and the kernel's loop over
 // a step has 16 to 128 independent iterations, enough to overlap the divisions and square roots.
 inline constexpr int kPacketBatch = 128;
 // The widest vector holds 8 doubles (AVX-512): batches are padded to a multiple of it.
