@@ -19,6 +19,8 @@ packages=(
   nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev libpng-dev
   # the starburst's FFT (src/flare/wave)
   libkissfft-dev
+  # SIMD packet tracing with run-time dispatch (src/flare/optics/PacketTracer)
+  libhwy-dev
   # the Python module (src/python, docs/python.md), for Debian's /usr/bin/python3
   pybind11-dev python3-dev python3-numpy
 )

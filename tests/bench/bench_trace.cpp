@@ -1,5 +1,7 @@
 // Micro-benchmarks of exact sequential tracing through the double Gauss: real rays per second and
-// surface interactions per second, on one thread and on all threads (TBB).
+// surface interactions per second, on one thread and on all threads (TBB); and parallel rays traced
+// one at a time (tracePath), step-major (BundleTracer) and in SIMD packets (PacketTracer) on the
+// same pupil points, so that one run gives their ratio.
 #include <atomic>
 #include <cstdint>
 #include <random>
@@ -7,11 +9,14 @@
 
 #include <benchmark/benchmark.h>
 #include <glm/geometric.hpp>
+#include <hwy/targets.h>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
 #include "flare/optics/LensFile.h"
 #include "flare/optics/LensSystem.h"
+#include "flare/optics/PacketTracer.h"
+#include "flare/optics/PupilGrid.h"
 #include "flare/optics/RealRays.h"
 #include "flare/optics/SequentialTracer.h"
 
@@ -83,6 +88,95 @@ void BM_TraceForwardThreads(benchmark::State& state) {
     state.counters["interactions/s"] = benchmark::Counter(static_cast<double>(interactions.load()), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_TraceForwardThreads)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+// Parallel rays of a light 5° off axis, (3°, 4°), filling the front aperture's projection on the
+// pupil plane: most land, some are vignetted or blocked by the iris, as in the preview's grids.
+std::vector<glm::dvec2> makePupilPoints(const PupilGrid& grid, double radiusMm, size_t count) {
+    std::mt19937_64 rng(2);
+    std::uniform_real_distribution<double> u(-radiusMm, radiusMm);
+    std::vector<glm::dvec2> points;
+    while (points.size() < count) {
+        const glm::dvec2 p(u(rng), u(rng));
+        if (glm::dot(p, p) <= radiusMm * radiusMm) points.push_back(p);
+    }
+    return points;
+}
+
+// The three tracers of parallel rays. Arguments: `ghost` 0 the direct path, 1 the ghost reflecting
+// at surfaces 5 and 2 (1-based); `fresnel` 0 geometry only, 1 with Fresnel/coating factors (for
+// BundleTracer and PacketTracer from InterfaceTables, as the preview uses them; tracePath has only
+// the exact thin-film response, several times dearer).
+enum class ParallelTracer { TracePath, Bundle, Packet };
+
+template <ParallelTracer kind>
+void BM_TraceParallelRays(benchmark::State& state) {
+    const LensSystem& lens = doubleGauss();
+    const SpectralIndices idx = lens.indicesAt(550.0);
+    const std::vector<int> reflections = state.range(0) != 0 ? std::vector<int>{4, 1} : std::vector<int>{};
+    const bool fresnel = state.range(1) != 0;
+    const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(3.0, 4.0));
+    const std::vector<glm::dvec2> points = makePupilPoints(grid, lens.surface(0).semiApertureMm, 4096);
+    const InterfaceTables tables(lens, idx);
+    const BundleTracer bundle(lens, idx, reflections, fresnel, fresnel ? &tables : nullptr);
+    const PacketTracer packet(bundle);
+    std::vector<BundleLanding> landings(points.size());
+    SequentialPath path;
+    path.reflections = reflections;
+    TraceOptions options;
+    options.fresnelWeights = fresnel;
+    for (auto _ : state) {
+        if constexpr (kind == ParallelTracer::TracePath) {
+            for (size_t i = 0; i < points.size(); ++i) {
+                const TraceResult r = tracePath(lens, idx, grid.ray(points[i].x, points[i].y), path, options);
+                landings[i].status = r.status;
+                landings[i].sensorMm = {r.ray.originMm.x, r.ray.originMm.y};
+            }
+        } else if constexpr (kind == ParallelTracer::Bundle) {
+            bundle.trace(grid, points, landings);
+        } else {
+            packet.trace(grid, points, landings);
+        }
+        benchmark::DoNotOptimize(landings.data());
+        benchmark::ClobberMemory();
+    }
+    std::int64_t passed = 0;
+    for (const BundleLanding& l : landings) passed += l.ok();
+    const double rays = static_cast<double>(state.iterations()) * static_cast<double>(points.size());
+    state.SetItemsProcessed(static_cast<std::int64_t>(rays));
+    state.counters["rays/s"] = benchmark::Counter(rays, benchmark::Counter::kIsRate);
+    state.counters["pass_fraction"] = static_cast<double>(passed) / static_cast<double>(points.size());
+    if constexpr (kind == ParallelTracer::Packet) state.SetLabel(PacketTracer::targetName());
+}
+BENCHMARK(BM_TraceParallelRays<ParallelTracer::TracePath>)->ArgNames({"ghost", "fresnel"})->ArgsProduct({{0, 1}, {0, 1}});
+BENCHMARK(BM_TraceParallelRays<ParallelTracer::Bundle>)->ArgNames({"ghost", "fresnel"})->ArgsProduct({{0, 1}, {0, 1}});
+BENCHMARK(BM_TraceParallelRays<ParallelTracer::Packet>)->ArgNames({"ghost", "fresnel"})->ArgsProduct({{0, 1}, {0, 1}});
+
+// The packet tracer's direct path, geometry only, on each instruction set that this processor
+// runs and Highway compiled (the argument indexes them, best first; the label names it).
+void BM_PacketTracerPerTarget(benchmark::State& state) {
+    const std::vector<std::int64_t> targets = hwy::SupportedAndGeneratedTargets();
+    if (static_cast<size_t>(state.range(0)) >= targets.size()) {
+        state.SkipWithError("no such instruction set here");
+        return;
+    }
+    hwy::SetSupportedTargetsForTest(targets[state.range(0)]);
+    const LensSystem& lens = doubleGauss();
+    const SpectralIndices idx = lens.indicesAt(550.0);
+    const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(3.0, 4.0));
+    const std::vector<glm::dvec2> points = makePupilPoints(grid, lens.surface(0).semiApertureMm, 4096);
+    const PacketTracer packet(BundleTracer(lens, idx, {}, false));
+    std::vector<BundleLanding> landings(points.size());
+    for (auto _ : state) {
+        packet.trace(grid, points, landings);
+        benchmark::DoNotOptimize(landings.data());
+        benchmark::ClobberMemory();
+    }
+    const double rays = static_cast<double>(state.iterations()) * static_cast<double>(points.size());
+    state.counters["rays/s"] = benchmark::Counter(rays, benchmark::Counter::kIsRate);
+    state.SetLabel(PacketTracer::targetName());
+    hwy::SetSupportedTargetsForTest(0);
+}
+BENCHMARK(BM_PacketTracerPerTarget)->DenseRange(0, 4);
 
 }  // namespace
 

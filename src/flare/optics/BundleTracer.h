@@ -67,6 +67,8 @@ public:
     double transmittance(int surface, int direction, double cosThetaI) const;
 
 private:
+    friend class PacketTracer;  // interpolates the tables in SIMD lanes
+
     struct Table {
         std::vector<double> value, slope;  // at cos = i / intervals_
         double exactFrom = 2.0, exactTo = -1.0;  // evaluate exactly in this range of cosines
@@ -114,6 +116,8 @@ public:
     double wavelengthNm() const { return indices_.wavelengthNm; }
 
 private:
+    friend class PacketTracer;  // runs the same steps in SIMD lanes
+
     struct Step {
         enum class Kind : std::uint8_t { Refract, Reflect, Stop, SensorEnd, SensorReflect, SensorWrongExit, WrongExit };
         Kind kind = Kind::Refract;

@@ -23,6 +23,7 @@ public:
     int blades() const { return blades_; }
     double radiusMm() const { return radiusMm_; }          // area-equivalent radius
     double circumradiusMm() const { return circumradiusMm_; }  // farthest opening point
+    double apothemMm() const { return apothemMm_; }  // bladed: every point this near passes (0 round)
     double rotationRad() const { return rotationRad_; }
     double curvature() const { return curvature_; }
 

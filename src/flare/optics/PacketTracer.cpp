@@ -1,0 +1,487 @@
+#include "flare/optics/PacketTracer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+
+#include "flare/optics/Fresnel.h"
+
+// The state of a batch of rays, one array per coordinate (structure of arrays), so that a vector
+// register loads consecutive rays' x, then their y, and so on. Defined once: foreach_target.h
+// below compiles the rest of this file again for every instruction set.
+#ifndef FLARE_OPTICS_PACKET_TRACER_LANES
+#define FLARE_OPTICS_PACKET_TRACER_LANES
+namespace flare::detail {
+
+// Rays per batch: every array of the batch stays in L1 (11 × 1 KiB), and the kernel's loop over
+// a step has 16 to 128 independent iterations, enough to overlap the divisions and square roots.
+inline constexpr int kPacketBatch = 128;
+// The widest vector holds 8 doubles (AVX-512): batches are padded to a multiple of it.
+inline constexpr int kPacketMaxLanes = 8;
+
+struct PacketLanes {
+    alignas(64) double ox[kPacketBatch], oy[kPacketBatch], oz[kPacketBatch];
+    alignas(64) double dx[kPacketBatch], dy[kPacketBatch], dz[kPacketBatch];
+    alignas(64) double throughput[kPacketBatch];
+    // 0 while the ray is going; else 1 + status + 8 × (the step where it ended).
+    alignas(64) double fate[kPacketBatch];
+    // Set by a vector step for rays it left unchanged for the scalar step (1), else 0.
+    alignas(64) double deferred[kPacketBatch];
+    // The incidence cosine at a weighted step, and 1 where its Fresnel/coating factor is left to
+    // the scalar code (no tables, or a cosine in the tables' exact zone).
+    alignas(64) double cosine[kPacketBatch];
+    alignas(64) double scalarWeight[kPacketBatch];
+};
+
+// What a vector step left to the scalar code (flags), and how many rays it left going.
+inline constexpr int kDeferredRays = 1, kScalarWeights = 2;
+struct PacketStepResult {
+    int left = 0;
+    int going = 0;  // not counting the deferred rays
+};
+
+inline double fateCode(int step, TraceStatus status) { return 1.0 + static_cast<double>(status) + 8.0 * step; }
+
+}  // namespace flare::detail
+#endif
+
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "flare/optics/PacketTracer.cpp"
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
+HWY_BEFORE_NAMESPACE();
+namespace flare {
+namespace HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+// glm::normalize: v · (1 / √(v·v)), the dot product summed left to right.
+template <class V>
+HWY_INLINE void Normalize(V& x, V& y, V& z) {
+    const hn::DFromV<V> d;
+    const V inverse = hn::Div(hn::Set(d, 1.0), hn::Sqrt(hn::Add(hn::Add(hn::Mul(x, x), hn::Mul(y, y)), hn::Mul(z, z))));
+    x = hn::Mul(x, inverse);
+    y = hn::Mul(y, inverse);
+    z = hn::Mul(z, inverse);
+}
+
+// InterfaceTables::lookup for the lanes of `tabled` (the others give 0), in its order of operations.
+template <class D, class V = hn::Vec<D>>
+HWY_INLINE V LookupTable(D d, const detail::PacketStep& s, hn::Mask<D> tabled, V c) {
+    const hn::RebindToSigned<D> di;
+    const V x = hn::Mul(c, hn::Set(d, s.tableIntervals));
+    // Lanes outside the table (NaN, going nowhere) read entry 0.
+    const V i = hn::IfThenElseZero(tabled, hn::Min(hn::Floor(x), hn::Set(d, s.tableIntervals - 1.0)));
+    const auto index = hn::ConvertTo(di, i);
+    const V u = hn::Sub(x, i), h = hn::Set(d, 1.0 / s.tableIntervals);
+    const V u2 = hn::Mul(u, u), u3 = hn::Mul(u2, u);
+    const V two = hn::Set(d, 2.0), three = hn::Set(d, 3.0);
+    const V a = hn::Mul(hn::Add(hn::Sub(hn::Mul(two, u3), hn::Mul(three, u2)), hn::Set(d, 1.0)),
+                        hn::GatherIndex(d, s.tableValue, index));
+    const V b = hn::Mul(hn::Mul(hn::Add(hn::Sub(u3, hn::Mul(two, u2)), u), h), hn::GatherIndex(d, s.tableSlope, index));
+    const V e = hn::Mul(hn::Add(hn::Mul(hn::Set(d, -2.0), u3), hn::Mul(three, u2)), hn::GatherIndex(d, s.tableValue + 1, index));
+    const V f = hn::Mul(hn::Mul(hn::Sub(u3, u2), h), hn::GatherIndex(d, s.tableSlope + 1, index));
+    return hn::Add(hn::Add(hn::Add(a, b), e), f);
+}
+
+// One step for `count` rays (a multiple of the vector length): the operations of
+// BundleTracer::applyStep in the same order, with a ray's failure recorded in its fate. Rays
+// whose step needs the scalar code are left unchanged and marked deferred, factors left to the
+// scalar code are marked in scalarWeight; returns which of the two happened (kDeferredRays,
+// kScalarWeights) and how many rays it left going.
+//
+// A refraction runs as two loops over the batch, the intersection and then the new direction:
+// each iteration's chain of divisions and square roots is then short enough for the processor
+// to overlap several iterations (one loop doing both was bound by their latency).
+detail::PacketStepResult AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b, size_t count) {
+    using Kind = detail::PacketStep::Kind;
+    const hn::ScalableTag<double> d;
+    using V = hn::Vec<decltype(d)>;
+    using M = hn::Mask<decltype(d)>;
+    const size_t lanes = hn::Lanes(d);
+    const V zero = hn::Zero(d), one = hn::Set(d, 1.0), two = hn::Set(d, 2.0);
+    const double base = detail::fateCode(step, TraceStatus::Ok);
+    int left = 0;
+    size_t going = 0;
+
+    // Pass 1: where each ray meets the surface (the sensor: all of that step), and the clipping.
+    for (size_t i = 0; i < count; i += lanes) {
+        V fate = hn::Load(d, b.fate + i);
+        M alive = hn::Eq(fate, zero);
+        M deferred = hn::FirstN(d, 0);
+        // Ends the rays of `failed` that are still going with `status`.
+        auto fail = [&](M failed, TraceStatus status) {
+            failed = hn::And(failed, alive);
+            fate = hn::IfThenElse(failed, hn::Set(d, base + static_cast<double>(status)), fate);
+            alive = hn::AndNot(failed, alive);
+        };
+        auto defer = [&](M later) {
+            later = hn::And(later, alive);
+            deferred = hn::Or(deferred, later);
+            alive = hn::AndNot(later, alive);
+        };
+        if (hn::AllFalse(d, alive)) {
+            hn::Store(zero, d, b.deferred + i);
+            continue;
+        }
+        const V ox = hn::Load(d, b.ox + i), oy = hn::Load(d, b.oy + i), oz = hn::Load(d, b.oz + i);
+        const V dx = hn::Load(d, b.dx + i), dy = hn::Load(d, b.dy + i), dz = hn::Load(d, b.dz + i);
+        V px = ox, py = oy, pz = oz;
+
+        if (s.kind == Kind::Sensor) {
+            fail(hn::Le(dz, zero), TraceStatus::Missed);
+            const V t = hn::Div(hn::Sub(hn::Set(d, s.sensorZMm), oz), dz);
+            px = hn::Add(ox, hn::Mul(t, dx));
+            py = hn::Add(oy, hn::Mul(t, dy));
+            pz = hn::Add(oz, hn::Mul(t, dz));
+            if (s.wrongExit) fail(alive, TraceStatus::WrongExit);
+            if (s.reflect) {
+                fail(hn::Or(hn::Gt(hn::Abs(px), hn::Set(d, s.halfWidthMm)), hn::Gt(hn::Abs(py), hn::Set(d, s.halfHeightMm))),
+                     TraceStatus::Vignetted);
+                // reflect(direction, (0, 0, 1)), with its multiplications by the normal's zeros.
+                const V k = hn::Mul(two, hn::Add(hn::Add(hn::Mul(dx, zero), hn::Mul(dy, zero)), hn::Mul(dz, one)));
+                hn::Store(hn::IfThenElse(alive, hn::Sub(dx, hn::Mul(k, zero)), dx), d, b.dx + i);
+                hn::Store(hn::IfThenElse(alive, hn::Sub(dy, hn::Mul(k, zero)), dy), d, b.dy + i);
+                hn::Store(hn::IfThenElse(alive, hn::Sub(dz, hn::Mul(k, one)), dz), d, b.dz + i);
+                if (s.sensorWeighted) {
+                    const V w = hn::Load(d, b.throughput + i);
+                    hn::Store(hn::IfThenElse(alive, hn::Mul(w, hn::Set(d, s.sensorReflectance)), w), d, b.throughput + i);
+                }
+            }
+        } else {
+            // intersectConic in vertex-local coordinates (x and y are unchanged by the shift).
+            const V c = hn::Set(d, s.curvaturePerMm), k1 = hn::Set(d, s.conicFactor);
+            const V oz0 = hn::Sub(oz, hn::Set(d, s.vertexZMm));
+            const V qa = hn::Mul(c, hn::Add(hn::Add(hn::Mul(dx, dx), hn::Mul(dy, dy)), hn::Mul(hn::Mul(k1, dz), dz)));
+            const V qb = hn::Sub(hn::Mul(c, hn::Add(hn::Add(hn::Mul(ox, dx), hn::Mul(oy, dy)), hn::Mul(hn::Mul(k1, oz0), dz))), dz);
+            const V qc = hn::Sub(hn::Mul(c, hn::Add(hn::Add(hn::Mul(ox, ox), hn::Mul(oy, oy)), hn::Mul(hn::Mul(k1, oz0), oz0))),
+                                 hn::Mul(two, oz0));
+            defer(hn::Gt(hn::Abs(hn::Mul(c, qc)), hn::Set(d, kConicFarOrigin * kConicFarOrigin)));
+            // solveQuadratic: the linear case (a = 0) and the cancellation-free roots.
+            const M linear = hn::Eq(qa, zero);
+            // Only a plane (or a ray along a conic's axis at its vertex) is linear: skip the division.
+            const V tLinear = hn::AllFalse(d, linear) ? zero : hn::Div(hn::Neg(qc), hn::Mul(two, qb));
+            const V disc = hn::Sub(hn::Mul(qb, qb), hn::Mul(qa, qc));
+            const V q = hn::Neg(hn::Add(qb, hn::CopySign(hn::Sqrt(disc), qb)));
+            const V r0 = hn::Div(q, qa);
+            const V r1 = hn::IfThenElse(hn::Ne(q, zero), hn::Div(qc, q), r0);
+            const M swap = hn::Gt(r0, r1);
+            const V t0 = hn::IfThenElse(linear, tLinear, hn::IfThenElse(swap, r1, r0));
+            const V t1 = hn::IfThenElse(linear, tLinear, hn::IfThenElse(swap, r0, r1));
+            const M roots = hn::Or(hn::And(linear, hn::Ne(qb, zero)), hn::AndNot(linear, hn::Not(hn::Lt(disc, zero))));
+            // The first root beyond tMin on the vertex branch (1 − c k z > 0).
+            const V tMin = hn::Set(d, 1e-9), ck = hn::Set(d, s.curvaturePerMm * s.conicFactor);
+            const M ok0 = hn::And(hn::Not(hn::Le(t0, tMin)), hn::Gt(hn::Sub(one, hn::Mul(ck, hn::Add(oz0, hn::Mul(t0, dz)))), zero));
+            const M ok1 = hn::And(hn::Not(hn::Le(t1, tMin)), hn::Gt(hn::Sub(one, hn::Mul(ck, hn::Add(oz0, hn::Mul(t1, dz)))), zero));
+            fail(hn::Not(hn::And(roots, hn::Or(ok0, ok1))), TraceStatus::Missed);
+            const V t = hn::IfThenElse(ok0, t0, t1);
+            px = hn::Add(ox, hn::Mul(t, dx));
+            py = hn::Add(oy, hn::Mul(t, dy));
+            pz = hn::Add(oz, hn::Mul(t, dz));
+            const V r2 = hn::Add(hn::Mul(px, px), hn::Mul(py, py));
+            if (s.kind == Kind::Stop) {
+                if (s.roundIris) {
+                    fail(hn::Not(hn::Le(r2, hn::Set(d, s.irisInner2Mm2))), TraceStatus::BlockedByIris);
+                } else {
+                    fail(hn::Gt(r2, hn::Set(d, s.irisOuter2Mm2)), TraceStatus::BlockedByIris);
+                    defer(hn::Not(hn::Le(r2, hn::Set(d, s.irisInner2Mm2))));  // near the blades: Iris::contains
+                }
+            } else {
+                fail(hn::Gt(r2, hn::Set(d, s.aperture2Mm2)), TraceStatus::Vignetted);
+            }
+        }
+        hn::Store(hn::IfThenElse(alive, px, ox), d, b.ox + i);
+        hn::Store(hn::IfThenElse(alive, py, oy), d, b.oy + i);
+        hn::Store(hn::IfThenElse(alive, pz, oz), d, b.oz + i);
+        hn::Store(fate, d, b.fate + i);
+        hn::Store(hn::IfThenElseZero(deferred, one), d, b.deferred + i);
+        if (!hn::AllFalse(d, deferred)) left |= detail::kDeferredRays;
+        if (s.kind != Kind::Conic) going += hn::CountTrue(d, alive);
+    }
+    if (s.kind != Kind::Conic) return {left, static_cast<int>(going)};
+
+    // Pass 2: the normal at the hit, the factor and the reflected or refracted direction.
+    for (size_t i = 0; i < count; i += lanes) {
+        V fate = hn::Load(d, b.fate + i);
+        M alive = hn::AndNot(hn::Eq(hn::Load(d, b.deferred + i), one), hn::Eq(fate, zero));
+        if (hn::AllFalse(d, alive)) {
+            hn::Store(zero, d, b.scalarWeight + i);
+            continue;
+        }
+        const V px = hn::Load(d, b.ox + i), py = hn::Load(d, b.oy + i), pz = hn::Load(d, b.oz + i);
+        const V dx0 = hn::Load(d, b.dx + i), dy0 = hn::Load(d, b.dy + i), dz0 = hn::Load(d, b.dz + i);
+        V dx = dx0, dy = dy0, dz = dz0;
+        V nx = zero, ny = zero, nz = one;
+        if (s.normal == detail::PacketStep::Normal::Sphere) {
+            const V radius = hn::Set(d, s.radiusMm);
+            nx = hn::Div(hn::Sub(zero, px), radius);
+            ny = hn::Div(hn::Sub(zero, py), radius);
+            nz = hn::Div(hn::Sub(hn::Set(d, s.centreZMm), pz), radius);
+        } else if (s.normal == detail::PacketStep::Normal::Conic) {
+            // Surface::sagSlope (its polynomial terms, all zero, add +0) and normalAt.
+            const V r2 = hn::Add(hn::Mul(px, px), hn::Mul(py, py));
+            const V q2 = hn::Sub(one, hn::Mul(hn::Set(d, s.conicFactor * s.curvaturePerMm * s.curvaturePerMm), r2));
+            V slope = hn::IfThenElse(hn::Gt(q2, zero), hn::Div(hn::Set(d, 0.5 * s.curvaturePerMm), hn::Sqrt(q2)), zero);
+            slope = hn::Mul(hn::Set(d, -2.0), hn::Add(slope, zero));
+            nx = hn::Mul(slope, px);
+            ny = hn::Mul(slope, py);
+            Normalize(nx, ny, nz);
+        }
+        const V dot = hn::Add(hn::Add(hn::Mul(dx, nx), hn::Mul(dy, ny)), hn::Mul(dz, nz));
+        V factor = one;  // the Fresnel/coating factor from the tables
+        M tabled = alive;  // the lanes that have it
+        if (s.weighted) {
+            const V cosine = hn::Abs(dot);
+            hn::Store(cosine, d, b.cosine + i);
+            if (s.tableValue) {
+                // std::clamp(cosine, 0, 1); NaN and the exact zone go to the scalar code.
+                const V c = hn::IfThenElse(hn::Lt(cosine, zero), zero, hn::IfThenElse(hn::Lt(one, cosine), one, cosine));
+                const M exact = hn::And(hn::Ge(c, hn::Set(d, s.tableExactFrom)), hn::Le(c, hn::Set(d, s.tableExactTo)));
+                tabled = hn::AndNot(hn::Or(exact, hn::IsNaN(c)), alive);
+                factor = LookupTable(d, s, tabled, c);
+            } else {
+                tabled = hn::FirstN(d, 0);
+            }
+        }
+        if (s.reflect) {
+            const V k = hn::Mul(two, dot);
+            dx = hn::Sub(dx, hn::Mul(k, nx));
+            dy = hn::Sub(dy, hn::Mul(k, ny));
+            dz = hn::Sub(dz, hn::Mul(k, nz));
+        } else {
+            // refract(): the normal turned against the ray, Snell, total internal reflection.
+            V cosI = hn::Neg(dot);
+            const M flip = hn::Lt(cosI, zero);
+            nx = hn::IfThenElse(flip, hn::Neg(nx), nx);
+            ny = hn::IfThenElse(flip, hn::Neg(ny), ny);
+            nz = hn::IfThenElse(flip, hn::Neg(nz), nz);
+            cosI = hn::IfThenElse(flip, hn::Neg(cosI), cosI);
+            const V eta = hn::Set(d, s.eta);
+            const V sin2I = hn::Sub(one, hn::Mul(cosI, cosI));
+            const V sin2T = hn::Mul(hn::Set(d, s.eta * s.eta), hn::IfThenElse(hn::Lt(zero, sin2I), sin2I, zero));
+            const M tir = hn::And(hn::Ge(sin2T, one), alive);
+            fate = hn::IfThenElse(tir, hn::Set(d, base + static_cast<double>(TraceStatus::TotalInternalReflection)), fate);
+            alive = hn::AndNot(tir, alive);
+            const V k = hn::Sub(hn::Mul(eta, cosI), hn::Sqrt(hn::Sub(one, sin2T)));
+            dx = hn::Add(hn::Mul(eta, dx), hn::Mul(k, nx));
+            dy = hn::Add(hn::Mul(eta, dy), hn::Mul(k, ny));
+            dz = hn::Add(hn::Mul(eta, dz), hn::Mul(k, nz));
+        }
+        Normalize(dx, dy, dz);
+        hn::Store(hn::IfThenElse(alive, dx, dx0), d, b.dx + i);
+        hn::Store(hn::IfThenElse(alive, dy, dy0), d, b.dy + i);
+        hn::Store(hn::IfThenElse(alive, dz, dz0), d, b.dz + i);
+        hn::Store(fate, d, b.fate + i);
+        if (s.weighted) {
+            const V w = hn::Load(d, b.throughput + i);
+            hn::Store(hn::IfThenElse(hn::And(alive, tabled), hn::Mul(w, factor), w), d, b.throughput + i);
+            const M scalarWeight = hn::AndNot(tabled, alive);
+            hn::Store(hn::IfThenElseZero(scalarWeight, one), d, b.scalarWeight + i);
+            if (!hn::AllFalse(d, scalarWeight)) left |= detail::kScalarWeights;
+        }
+        going += hn::CountTrue(d, alive);
+    }
+    return {left, static_cast<int>(going)};
+}
+
+const char* KernelTargetName() { return hwy::TargetName(HWY_TARGET); }
+
+}  // namespace HWY_NAMESPACE
+}  // namespace flare
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace flare {
+
+HWY_EXPORT(AdvancePacket);
+HWY_EXPORT(KernelTargetName);
+
+const char* PacketTracer::targetName() { return HWY_DYNAMIC_DISPATCH(KernelTargetName)(); }
+
+PacketTracer::PacketTracer(const BundleTracer& path) : path_(path) {
+    using Kind = BundleTracer::Step::Kind;
+    const LensSystem& lens = *path_.lens_;
+    for (const BundleTracer::Step& bs : path_.steps_) {
+        detail::PacketStep s;
+        s.surface = bs.surface;
+        s.direction = bs.direction;
+        switch (bs.kind) {
+            case Kind::WrongExit: s.kind = detail::PacketStep::Kind::WrongExit; break;
+            case Kind::SensorEnd:
+            case Kind::SensorWrongExit:
+            case Kind::SensorReflect:
+                s.kind = detail::PacketStep::Kind::Sensor;
+                s.wrongExit = bs.kind == Kind::SensorWrongExit;
+                s.reflect = bs.kind == Kind::SensorReflect;
+                s.sensorWeighted = path_.fresnelWeights_;
+                s.sensorZMm = lens.sensorZMm();
+                s.halfWidthMm = 0.5 * lens.sensor().widthMm;
+                s.halfHeightMm = 0.5 * lens.sensor().heightMm;
+                s.sensorReflectance = lens.sensor().reflectance;
+                break;
+            case Kind::Stop:
+            case Kind::Refract:
+            case Kind::Reflect: {
+                const Surface& surface = lens.surface(bs.surface);
+                if (surface.hasPolynomial()) {
+                    s.kind = detail::PacketStep::Kind::Scalar;
+                    break;
+                }
+                s.kind = bs.kind == Kind::Stop ? detail::PacketStep::Kind::Stop : detail::PacketStep::Kind::Conic;
+                s.reflect = bs.kind == Kind::Reflect;
+                s.weighted = bs.kind != Kind::Stop && bs.weighted;
+                if (s.weighted && path_.tables_) {
+                    const InterfaceTables::Table& t = path_.tables_->table(bs.surface, bs.direction, s.reflect);
+                    s.tableValue = t.value.data();
+                    s.tableSlope = t.slope.data();
+                    s.tableIntervals = path_.tables_->intervals_;
+                    s.tableExactFrom = t.exactFrom;
+                    s.tableExactTo = t.exactTo;
+                }
+                s.vertexZMm = surface.vertexZMm;
+                s.curvaturePerMm = surface.curvature();
+                s.conicFactor = 1.0 + surface.conic;
+                s.radiusMm = surface.radiusMm;
+                s.centreZMm = surface.vertexZMm + surface.radiusMm;
+                s.aperture2Mm2 = surface.semiApertureMm * surface.semiApertureMm;
+                s.eta = bs.n1 / bs.n2;
+                s.normal = surface.radiusMm == 0.0   ? detail::PacketStep::Normal::Plane
+                           : surface.conic == 0.0 ? detail::PacketStep::Normal::Sphere
+                                                  : detail::PacketStep::Normal::Conic;
+                const Iris& iris = lens.iris();
+                s.roundIris = iris.blades() == 0;
+                s.irisInner2Mm2 = s.roundIris ? iris.radiusMm() * iris.radiusMm() : iris.apothemMm() * iris.apothemMm();
+                s.irisOuter2Mm2 = iris.circumradiusMm() * iris.circumradiusMm();
+                break;
+            }
+        }
+        steps_.push_back(s);
+    }
+}
+
+namespace {
+
+// BundleTracer's own step for the listed rays of a batch (all going), written back into the lanes;
+// returns how many are still going.
+int scalarStep(const BundleTracer& path, int step, detail::PacketLanes& b, const int* which, int count) {
+    BundleRay rays[detail::kPacketBatch];
+    StepOutcome outcomes[detail::kPacketBatch];
+    for (int j = 0; j < count; ++j) {
+        const int i = which[j];
+        rays[j] = {{{b.ox[i], b.oy[i], b.oz[i]}, {b.dx[i], b.dy[i], b.dz[i]}}, b.throughput[i]};
+    }
+    path.advance(step, std::span<BundleRay>(rays, count), std::span<StepOutcome>(outcomes, count), false);
+    int going = 0;
+    for (int j = 0; j < count; ++j) {
+        const int i = which[j];
+        if (!outcomes[j].alive) {
+            b.fate[i] = detail::fateCode(step, outcomes[j].failure);
+            continue;
+        }
+        ++going;
+        const Ray& r = rays[j].ray;
+        b.ox[i] = r.originMm.x, b.oy[i] = r.originMm.y, b.oz[i] = r.originMm.z;
+        b.dx[i] = r.direction.x, b.dy[i] = r.direction.y, b.dz[i] = r.direction.z;
+        b.throughput[i] = rays[j].throughput;
+    }
+    return going;
+}
+
+}  // namespace
+
+void PacketTracer::trace(const PupilGrid& grid, std::span<const glm::dvec2> pupilMm, std::span<BundleLanding> out) const {
+    constexpr int kLanes = detail::kPacketMaxLanes;
+    detail::PacketLanes b;
+    int which[detail::kPacketBatch];
+    int index[detail::kPacketBatch];  // the input of each lane, −1 for padding
+    const LensSystem& lens = *path_.lens_;
+    for (size_t begin = 0; begin < pupilMm.size(); begin += detail::kPacketBatch) {
+        const int count = static_cast<int>(std::min<size_t>(detail::kPacketBatch, pupilMm.size() - begin));
+        int active = (count + kLanes - 1) / kLanes * kLanes;  // lanes in use, whole vectors
+        for (int i = 0; i < active; ++i) {
+            const Ray r = i < count ? grid.ray(pupilMm[begin + i].x, pupilMm[begin + i].y) : Ray{};
+            b.ox[i] = r.originMm.x, b.oy[i] = r.originMm.y, b.oz[i] = r.originMm.z;
+            b.dx[i] = r.direction.x, b.dy[i] = r.direction.y, b.dz[i] = r.direction.z;
+            b.throughput[i] = 1.0;
+            b.fate[i] = i < count ? 0.0 : 1.0;  // padding lanes never run
+            index[i] = i < count ? i : -1;
+        }
+        auto land = [&](int i) {
+            if (index[i] < 0) return;
+            BundleLanding& o = out[begin + index[i]];
+            o = BundleLanding{};
+            if (b.fate[i] == 0.0) {
+                o.sensorMm = {b.ox[i], b.oy[i]};
+                o.throughput = b.throughput[i];
+                o.status = TraceStatus::Ok;
+                o.surface = lens.surfaceCount();
+                return;
+            }
+            const int code = static_cast<int>(b.fate[i]) - 1;
+            o.status = static_cast<TraceStatus>(code % 8);
+            o.surface = path_.stepSurface(code / 8);
+        };
+        for (int step = 0; step < static_cast<int>(steps_.size()); ++step) {
+            const detail::PacketStep& s = steps_[step];
+            int n = 0, going = 0;
+            if (s.kind == detail::PacketStep::Kind::WrongExit) {
+                for (int i = 0; i < active; ++i)
+                    if (b.fate[i] == 0.0) b.fate[i] = detail::fateCode(step, TraceStatus::WrongExit);
+            } else if (s.kind == detail::PacketStep::Kind::Scalar) {
+                for (int i = 0; i < active; ++i)
+                    if (b.fate[i] == 0.0) which[n++] = i;
+                going = scalarStep(path_, step, b, which, n);
+            } else {
+                const detail::PacketStepResult result =
+                    HWY_DYNAMIC_DISPATCH(AdvancePacket)(s, step, b, static_cast<size_t>(active));
+                going = result.going;
+                if (result.left & detail::kScalarWeights) {
+                    // BundleTracer's factors, one ray at a time (deferred rays get theirs below).
+                    const InterfaceTables* tables = path_.tables_;
+                    for (int i = 0; i < active; ++i) {
+                        if (b.scalarWeight[i] == 0.0) continue;
+                        const double c = b.cosine[i];
+                        if (tables)
+                            b.throughput[i] *= s.reflect ? tables->reflectance(s.surface, s.direction, c)
+                                                         : tables->transmittance(s.surface, s.direction, c);
+                        else {
+                            const FresnelTerms f = interfaceResponse(lens, path_.indices_, s.surface, s.direction, c);
+                            b.throughput[i] *= s.reflect ? f.reflectance() : f.transmittance();
+                        }
+                    }
+                }
+                if (result.left & detail::kDeferredRays) {
+                    for (int i = 0; i < active; ++i)
+                        if (b.deferred[i] != 0.0) which[n++] = i;
+                    going += scalarStep(path_, step, b, which, n);
+                }
+            }
+            // A ghost path loses most rays within a few steps: once a quarter of the lanes are
+            // dead, the ended rays land and the going ones move together, so that later steps
+            // run fewer vectors (moving a ray costs far less than a step).
+            const int needed = (going + kLanes - 1) / kLanes * kLanes;
+            if (4 * needed > 3 * active) continue;
+            int m = 0;
+            for (int i = 0; i < active; ++i) {
+                if (b.fate[i] != 0.0) {
+                    land(i);
+                    continue;
+                }
+                b.ox[m] = b.ox[i], b.oy[m] = b.oy[i], b.oz[m] = b.oz[i];
+                b.dx[m] = b.dx[i], b.dy[m] = b.dy[i], b.dz[m] = b.dz[i];
+                b.throughput[m] = b.throughput[i];
+                b.fate[m] = 0.0;
+                index[m++] = index[i];
+            }
+            for (; m < needed; ++m) {
+                b.fate[m] = 1.0;
+                index[m] = -1;
+            }
+            active = needed;
+        }
+        for (int i = 0; i < active; ++i) land(i);
+    }
+}
+
+}  // namespace flare
+#endif  // HWY_ONCE

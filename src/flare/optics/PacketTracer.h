@@ -1,0 +1,81 @@
+// A BundleTracer's path traced in SIMD packets: the lanes of one vector register carry that many
+// parallel rays through each event at once, in double precision, on the widest instruction set
+// the processor has (Google Highway's dynamic dispatch: AVX-512, AVX2, SSE4, or the baseline).
+// The operations and their order are tracePath's (no fused multiply-adds, no reciprocal
+// approximations), so every ray's status, surface, throughput and landing equal tracePath's to
+// the last bit on every instruction set; a test checks it lane by lane for each one this
+// processor runs.
+//
+// Spheres, conics and planes are traced in the vector lanes; aspheres, the few rays whose origin
+// is too far from a conic for its quadratic (intersectConicFromAfar) and rays near the blades of
+// a polygonal iris take BundleTracer's scalar step for that event. Fresnel/coating factors from
+// InterfaceTables are interpolated in the lanes with the same operations as the tables' own
+// lookup; the exact responses (no tables, or a cosine near total internal reflection) are
+// evaluated one lane at a time.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <glm/vec2.hpp>
+
+#include "flare/optics/BundleTracer.h"
+
+namespace flare {
+
+namespace detail {
+
+// One event of the path with the constants its vector kernel needs (internal to PacketTracer).
+struct PacketStep {
+    enum class Kind : std::uint8_t {
+        Conic,      // refraction or reflection at a sphere, conic or plane
+        Stop,       // the iris plane
+        Sensor,     // the sensor plane: end there, reflect, or a wrong exit
+        Scalar,     // BundleTracer's step for every ray (aspheres)
+        WrongExit,  // every ray ends here
+    };
+    Kind kind = Kind::Conic;
+    bool reflect = false;        // Conic: mirror reflection; Sensor: reflect off the sensor
+    bool wrongExit = false;      // Sensor: rays reaching it end as WrongExit
+    bool weighted = false;       // Conic: multiply by the Fresnel/coating factor
+    enum class Normal : std::uint8_t { Sphere, Plane, Conic } normal = Normal::Sphere;  // Conic
+    bool sensorWeighted = false; // Sensor reflection: multiply by the sensor's reflectance
+    bool roundIris = true;       // Stop
+    int surface = 0, direction = 1;  // as BundleTracer's step (for the Fresnel/coating factor)
+    double vertexZMm = 0.0, curvaturePerMm = 0.0, conicFactor = 1.0, radiusMm = 0.0;
+    double centreZMm = 0.0;       // a sphere's centre of curvature
+    double aperture2Mm2 = 0.0;
+    double eta = 1.0;             // n1 / n2
+    double irisInner2Mm2 = 0.0;   // Stop: squared radius within which every point passes
+    double irisOuter2Mm2 = 0.0;   // Stop: beyond it none passes (between: the scalar test)
+    double sensorZMm = 0.0, halfWidthMm = 0.0, halfHeightMm = 0.0, sensorReflectance = 1.0;
+    // Conic, weighted, with InterfaceTables: the factor's table (values and slopes at cos = i /
+    // intervals), looked up in the lanes; cosines in [exactFrom, exactTo] get the exact response.
+    const double* tableValue = nullptr;
+    const double* tableSlope = nullptr;
+    double tableIntervals = 0.0, tableExactFrom = 2.0, tableExactTo = -1.0;
+};
+
+}  // namespace detail
+
+class PacketTracer {
+public:
+    // The path of `path` (a copy is kept, with the lens, indices and tables it refers to, which
+    // must outlive this tracer).
+    explicit PacketTracer(const BundleTracer& path);
+
+    // As BundleTracer::trace: out[i] = the landing of grid.ray(pupilMm[i].x, pupilMm[i].y), bit for
+    // bit tracePath's (with the BundleTracer's tables, equal to BundleTracer's).
+    void trace(const PupilGrid& grid, std::span<const glm::dvec2> pupilMm, std::span<BundleLanding> out) const;
+
+    const BundleTracer& path() const { return path_; }
+    // The instruction set the dispatcher chose on this processor, e.g. "AVX3" (AVX-512) or "AVX2".
+    static const char* targetName();
+
+private:
+    BundleTracer path_;
+    std::vector<detail::PacketStep> steps_;
+};
+
+}  // namespace flare

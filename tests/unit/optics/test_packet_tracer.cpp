@@ -1,0 +1,201 @@
+// The SIMD packet tracer against tracePath, bit for bit, on every instruction set that this
+// processor runs and Highway compiled (AVX-512, AVX2, SSE4, the baseline): every shipped lens,
+// the direct path and ghost paths, geometry only and with Fresnel/coating factors, rays that land
+// and rays that fail in every way, and the cases its vector lanes hand to the scalar step
+// (aspheres, far origins, the blades of a polygonal iris) as well as conics and a round iris.
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <hwy/targets.h>
+
+#include "TestUtil.h"
+#include "flare/ghosts/Ghosts.h"
+#include "flare/optics/PacketTracer.h"
+
+namespace flare {
+namespace {
+
+// A lattice of pupil points over the whole grid, so that rays meet every kind of failure. An odd
+// count leaves a partial vector at the end of the last batch.
+std::vector<glm::dvec2> lattice(const PupilGrid& grid, int n) {
+    std::vector<glm::dvec2> points;
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i)
+            points.push_back({-grid.halfSizeMm + (i + 0.5) * 2.0 * grid.halfSizeMm / n,
+                              -grid.halfSizeMm + (j + 0.5) * 2.0 * grid.halfSizeMm / n});
+    return points;
+}
+
+// Runs `body` once per instruction set that Highway compiled and this processor supports, with
+// the dispatcher forced to it; the name goes into failure messages.
+template <class Body>
+void forEachTarget(Body body) {
+    for (const std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
+        hwy::SetSupportedTargetsForTest(target);
+        ASSERT_STREQ(PacketTracer::targetName(), hwy::TargetName(target));
+        body(std::string(hwy::TargetName(target)));
+    }
+    hwy::SetSupportedTargetsForTest(0);
+}
+
+// Counts of outcomes seen, so that a test shows it compared failures of each kind, not only hits.
+struct Seen {
+    long counts[7] = {};
+    void add(TraceStatus s) { ++counts[static_cast<int>(s)]; }
+    long operator[](TraceStatus s) const { return counts[static_cast<int>(s)]; }
+};
+
+// Every ray of `points` through `tracer` against tracePath with the same options, bit for bit.
+void expectEqualsTracePath(const PacketTracer& tracer, const PupilGrid& grid, const std::vector<glm::dvec2>& points,
+                           std::span<const int> reflections, bool fresnelWeights, const std::string& what, Seen* seen) {
+    const LensSystem& lens = tracer.path().lens();
+    const SpectralIndices indices = lens.indicesAt(tracer.path().wavelengthNm());
+    std::vector<BundleLanding> landings(points.size());
+    tracer.trace(grid, points, landings);
+    SequentialPath path;
+    path.reflections = reflections;
+    TraceOptions options;
+    options.fresnelWeights = fresnelWeights;
+    for (size_t i = 0; i < points.size(); ++i) {
+        const TraceResult r = tracePath(lens, indices, grid.ray(points[i].x, points[i].y), path, options);
+        ASSERT_EQ(landings[i].status, r.status) << what << " ray " << i;
+        ASSERT_EQ(landings[i].surface, r.surface) << what << " ray " << i;
+        ASSERT_EQ(landings[i].throughput, r.throughput) << what << " ray " << i;
+        if (seen) seen->add(r.status);
+        if (!r.ok()) continue;
+        ASSERT_EQ(landings[i].sensorMm.x, r.ray.originMm.x) << what << " ray " << i;
+        ASSERT_EQ(landings[i].sensorMm.y, r.ray.originMm.y) << what << " ray " << i;
+    }
+}
+
+TEST(PacketTracer, EqualsTracePathBitForBitOnEveryShippedLensAndInstructionSet) {
+    forEachTarget([](const std::string& target) {
+        Seen seen;
+        for (const char* file : test::kShippedLenses) {
+            const LensSystem lens = test::loadLens(file);
+            const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(9.0, 6.0));
+            const SpectralIndices indices = lens.indicesAt(520.0);
+            std::vector<GhostPath> paths = enumerateGhosts(lens, 2, true);
+            // The direct path, then sequences no ray completes: out through the front, at the
+            // sensor too early.
+            paths.insert(paths.begin(), {GhostPath{}, GhostPath{{2}}, GhostPath{{3, 1, 0}}});
+            const std::vector<glm::dvec2> points = lattice(grid, 23);
+            for (size_t p = 0; p < paths.size(); p += p < 3 ? 1 : 5) {  // every fifth ghost keeps it short
+                const std::string what = target + " " + file + " " + paths[p].label();
+                for (bool weights : {false, true}) {
+                    const PacketTracer tracer(BundleTracer(lens, indices, paths[p].reflections, weights));
+                    expectEqualsTracePath(tracer, grid, points, paths[p].reflections, weights, what, &seen);
+                }
+            }
+        }
+        EXPECT_GT(seen[TraceStatus::Ok], 1000) << target;
+        for (TraceStatus s : {TraceStatus::Missed, TraceStatus::Vignetted, TraceStatus::BlockedByIris,
+                              TraceStatus::TotalInternalReflection, TraceStatus::WrongExit})
+            EXPECT_GT(seen[s], 0) << target << " " << toString(s);
+    });
+}
+
+// With InterfaceTables, the factors come from the same lookups as BundleTracer's.
+TEST(PacketTracer, WithTablesEqualsBundleTracerBitForBit) {
+    const LensSystem lens = test::loadLens("lenses/double-gauss-50mm.lens");
+    const SpectralIndices indices = lens.indicesAt(610.0);
+    const InterfaceTables tables(lens, indices);
+    const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(4.0, -7.0));
+    const std::vector<glm::dvec2> points = lattice(grid, 41);
+    forEachTarget([&](const std::string& target) {
+        for (const GhostPath& ghost : {GhostPath{}, GhostPath{{4, 1}}, GhostPath{{11, 8}}, GhostPath{{9, 0}}}) {
+            const BundleTracer bundle(lens, indices, ghost.reflections, true, &tables);
+            const PacketTracer tracer(bundle);
+            std::vector<BundleLanding> expected(points.size()), landings(points.size());
+            bundle.trace(grid, points, expected);
+            tracer.trace(grid, points, landings);
+            for (size_t i = 0; i < points.size(); ++i) {
+                ASSERT_EQ(landings[i].status, expected[i].status) << target << " " << ghost.label() << " ray " << i;
+                ASSERT_EQ(landings[i].surface, expected[i].surface) << target << " " << ghost.label();
+                ASSERT_EQ(landings[i].throughput, expected[i].throughput) << target << " " << ghost.label();
+                ASSERT_EQ(landings[i].sensorMm.x, expected[i].sensorMm.x) << target << " " << ghost.label();
+                ASSERT_EQ(landings[i].sensorMm.y, expected[i].sensorMm.y) << target << " " << ghost.label();
+            }
+        }
+    });
+}
+
+// Conics without polynomial terms (the zoom's aspheres with their terms removed) take the vector
+// lanes' conic normal; a round iris is decided in the lanes alone.
+TEST(PacketTracer, ConicsAndARoundIrisEqualTracePath) {
+    LensPrescription prescription = loadLensFile(test::sourcePath("lenses/zoom-24-70mm.lens"));
+    int conics = 0;
+    for (PrescriptionRow& row : prescription.rows) {
+        row.asphere = {};
+        conics += row.conic != 0.0;
+    }
+    ASSERT_GE(conics, 3);
+    prescription.iris.blades = 0;
+    const LensSystem lens = LensSystem::build(prescription);
+    const SpectralIndices indices = lens.indicesAt(480.0);
+    const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(-12.0, 5.0));
+    const std::vector<glm::dvec2> points = lattice(grid, 37);
+    forEachTarget([&](const std::string& target) {
+        Seen seen;
+        for (const GhostPath& ghost : {GhostPath{}, GhostPath{{28, 3}}, GhostPath{{13, 6}}, GhostPath{{22, 21}}}) {
+            const PacketTracer tracer(BundleTracer(lens, indices, ghost.reflections, true));
+            expectEqualsTracePath(tracer, grid, points, ghost.reflections, true, target + " " + ghost.label(), &seen);
+        }
+        EXPECT_GT(seen[TraceStatus::Ok], 50) << target;
+        EXPECT_GT(seen[TraceStatus::BlockedByIris], 0) << target;
+    });
+}
+
+// Rays starting far in front of the lens (a long back-off) meet the first surface from beyond
+// kConicFarOrigin radii: the lanes hand them to intersectConicFromAfar's scalar path.
+TEST(PacketTracer, FarOriginsEqualTracePath) {
+    const LensSystem lens = test::loadLens("lenses/double-gauss-50mm.lens");
+    const SpectralIndices indices = lens.indicesAt(550.0);
+    PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(2.0, 1.0));
+    grid.backOffMm += 400.0;
+    ASSERT_GT(grid.backOffMm, kConicFarOrigin * std::abs(lens.surface(0).radiusMm) * 2.0);
+    const std::vector<glm::dvec2> points = lattice(grid, 19);
+    forEachTarget([&](const std::string& target) {
+        Seen seen;
+        const PacketTracer tracer(BundleTracer(lens, indices, {}, true));
+        expectEqualsTracePath(tracer, grid, points, {}, true, target, &seen);
+        EXPECT_GT(seen[TraceStatus::Ok], 20) << target;
+    });
+}
+
+// Pupil points that are not finite, far outside the lens, or on the edge of an aperture: every
+// lane ends as tracePath's does, and nothing non-finite reaches a landing that is ok.
+TEST(PacketTracer, NonFiniteFarAndEdgeRaysEqualTracePath) {
+    const LensSystem lens = test::loadLens("lenses/wide-angle-28mm.lens");
+    const SpectralIndices indices = lens.indicesAt(550.0);
+    const InterfaceTables tables(lens, indices);
+    const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(0.0, 0.0));
+    const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+    const double edge = lens.surface(0).semiApertureMm;
+    std::vector<glm::dvec2> points = {{nan, 0.0}, {0.0, nan}, {inf, 0.0}, {-inf, inf}, {1e300, -1e300},
+                                      {1e154, 0.0}, {0.0, 0.0}, {-0.0, -0.0}, {edge, 0.0}, {0.0, -edge},
+                                      {std::nextafter(edge, 0.0), 0.0}, {std::nextafter(edge, 2 * edge), 0.0},
+                                      {edge * 0.6, edge * 0.8}, {1e-300, -1e-300}};
+    forEachTarget([&](const std::string& target) {
+        for (const GhostPath& ghost : {GhostPath{}, GhostPath{{5, 2}}}) {
+            expectEqualsTracePath(PacketTracer(BundleTracer(lens, indices, ghost.reflections, true)), grid, points,
+                                  ghost.reflections, true, target + " " + ghost.label(), nullptr);
+            const BundleTracer bundle(lens, indices, ghost.reflections, true, &tables);
+            std::vector<BundleLanding> expected(points.size()), landings(points.size());
+            bundle.trace(grid, points, expected);
+            PacketTracer(bundle).trace(grid, points, landings);
+            for (size_t i = 0; i < points.size(); ++i) {
+                ASSERT_EQ(landings[i].status, expected[i].status) << target << " point " << i;
+                ASSERT_EQ(landings[i].throughput, expected[i].throughput) << target << " point " << i;
+                if (landings[i].ok()) ASSERT_TRUE(std::isfinite(landings[i].sensorMm.x + landings[i].sensorMm.y));
+            }
+        }
+    });
+}
+
+}  // namespace
+}  // namespace flare
