@@ -1,5 +1,7 @@
 #include "flare/core/TextEncoding.h"
 
+#include <cctype>
+
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -111,6 +113,31 @@ std::string readFileBytes(const std::string& path, const std::string& what) {
     buffer << in.rdbuf();
     if (in.bad()) throw InputError(path, 0, "cannot read " + what);
     return buffer.str();
+}
+
+std::vector<std::string_view> splitWhitespace(std::string_view line) {
+    std::vector<std::string_view> tokens;
+    size_t i = 0;
+    while (i < line.size()) {
+        while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+        size_t j = i;
+        while (j < line.size() && !std::isspace(static_cast<unsigned char>(line[j]))) ++j;
+        if (j > i) tokens.push_back(line.substr(i, j - i));
+        i = j;
+    }
+    return tokens;
+}
+
+std::string asciiUpper(std::string_view s) {
+    std::string out(s);
+    for (char& c : out) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    return out;
+}
+
+std::string asciiLower(std::string_view s) {
+    std::string out(s);
+    for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return out;
 }
 
 }  // namespace flare

@@ -5,6 +5,7 @@
 
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace flare {
 
@@ -18,5 +19,11 @@ std::string encodeUtf16Le(std::string_view utf8);
 
 // Reads a whole file as bytes; raises InputError(path, 0, ...) naming `what` when it cannot be read.
 std::string readFileBytes(const std::string& path, const std::string& what);
+
+// What the line-based readers (.lens, .zmx, .agf) share: a line's whitespace-separated tokens
+// (views into it), and ASCII case folding for keywords and glass names.
+std::vector<std::string_view> splitWhitespace(std::string_view line);
+std::string asciiUpper(std::string_view s);
+std::string asciiLower(std::string_view s);
 
 }  // namespace flare

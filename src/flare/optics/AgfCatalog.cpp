@@ -21,25 +21,6 @@ namespace {
 // The catalogues a bare glass name is looked up in first, in this order.
 constexpr const char* kPreferredCatalogs[] = {"SCHOTT", "OHARA", "HOYA", "CDGM", "NIKON-HIKARI", "SUMITA"};
 
-std::string upper(std::string_view s) {
-    std::string out(s);
-    for (char& c : out) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-    return out;
-}
-
-std::vector<std::string_view> tokens(std::string_view line) {
-    std::vector<std::string_view> out;
-    size_t i = 0;
-    while (i < line.size()) {
-        while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
-        size_t j = i;
-        while (j < line.size() && !std::isspace(static_cast<unsigned char>(line[j]))) ++j;
-        if (j > i) out.push_back(line.substr(i, j - i));
-        i = j;
-    }
-    return out;
-}
-
 bool parseNumber(std::string_view token, double* value) {
     const char* begin = token.data();
     const char* end = begin + token.size();
@@ -77,9 +58,9 @@ int agfCoefficientCount(int formula) {
 }
 
 const CatalogGlass* AgfCatalog::find(std::string_view glassName) const {
-    const std::string wanted = upper(glassName);
+    const std::string wanted = asciiUpper(glassName);
     for (const AgfGlass& g : glasses_)
-        if (upper(g.glass.name) == wanted) return &g.glass;
+        if (asciiUpper(g.glass.name) == wanted) return &g.glass;
     return nullptr;
 }
 
@@ -97,7 +78,7 @@ AgfCatalog AgfCatalog::parse(std::string_view text, const std::string& fileName,
         size_t end = text.find('\n', start);
         if (end == std::string_view::npos) end = text.size();
         ++number;
-        const std::vector<std::string_view> t = tokens(text.substr(start, end - start));
+        const std::vector<std::string_view> t = splitWhitespace(text.substr(start, end - start));
         start = end + 1;
         if (t.empty()) continue;
         double ignored = 0.0;
@@ -116,7 +97,7 @@ AgfCatalog AgfCatalog::parse(std::string_view text, const std::string& fileName,
         if (!pending) return;
         if (!pending->haveCoefficients)
             fail(pending->entry.line, "glass " + std::string(pending->entry.glass.name) + " has no CD (coefficients) line");
-        if (names.insert(upper(pending->entry.glass.name)).second) catalog.glasses_.push_back(pending->entry);
+        if (names.insert(asciiUpper(pending->entry.glass.name)).second) catalog.glasses_.push_back(pending->entry);
         pending.reset();
     };
     for (const Record& r : records) {
@@ -195,7 +176,7 @@ AgfCatalog AgfCatalog::parse(std::string_view text, const std::string& fileName,
 
 AgfCatalog AgfCatalog::load(const std::string& path) {
     const std::string text = decodeText(readFileBytes(path, "glass catalogue"));
-    return parse(text, path, upper(fs::path(path).stem().string()));
+    return parse(text, path, asciiUpper(fs::path(path).stem().string()));
 }
 
 std::vector<std::string> glassCatalogFolders() {
@@ -212,12 +193,12 @@ std::span<const AgfCatalog> shippedGlassCatalogs() {
             std::error_code ec;
             std::vector<fs::path> files;
             for (const fs::directory_entry& e : fs::directory_iterator(folder, ec)) {
-                const std::string extension = upper(e.path().extension().string());
+                const std::string extension = asciiUpper(e.path().extension().string());
                 if (extension == ".AGF" && e.is_regular_file(ec)) files.push_back(e.path());
             }
             if (files.empty()) continue;
             auto rank = [](const fs::path& p) {
-                const std::string stem = upper(p.stem().string());
+                const std::string stem = asciiUpper(p.stem().string());
                 const auto* it = std::find(std::begin(kPreferredCatalogs), std::end(kPreferredCatalogs), stem);
                 return std::pair(static_cast<int>(it - std::begin(kPreferredCatalogs)), stem);
             };

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "flare/core/Error.h"
+#include "flare/core/TextEncoding.h"
 #include "flare/optics/EmbeddedLenses.h"
 #include "flare/optics/LensLibrary.h"
 #include "flare/optics/LensSystem.h"
@@ -20,25 +21,6 @@
 namespace flare {
 
 namespace {
-
-std::string lower(std::string_view s) {
-    std::string out(s);
-    for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    return out;
-}
-
-std::vector<std::string_view> splitWhitespace(std::string_view line) {
-    std::vector<std::string_view> tokens;
-    size_t i = 0;
-    while (i < line.size()) {
-        while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
-        size_t j = i;
-        while (j < line.size() && !std::isspace(static_cast<unsigned char>(line[j]))) ++j;
-        if (j > i) tokens.push_back(line.substr(i, j - i));
-        i = j;
-    }
-    return tokens;
-}
 
 std::string_view trim(std::string_view s) {
     while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
@@ -79,7 +61,7 @@ public:
     }
 
     double number(int line, std::string_view token, const std::string& what) const {
-        const std::string t = lower(token);
+        const std::string t = asciiLower(token);
         if (t == "inf" || t == "infinity") return std::numeric_limits<double>::infinity();
         if (t == "-inf" || t == "-infinity") return -std::numeric_limits<double>::infinity();
         double value = 0.0;
@@ -115,11 +97,11 @@ public:
         const size_t eq = token.find('=');
         if (eq == std::string_view::npos || eq == 0 || eq + 1 == token.size())
             error(line, "expected key=value, got '" + std::string(token) + "'");
-        return {lower(token.substr(0, eq)), token.substr(eq + 1)};
+        return {asciiLower(token.substr(0, eq)), token.substr(eq + 1)};
     }
 
     Medium material(int line, std::string_view token) const {
-        const std::string t = lower(token);
+        const std::string t = asciiLower(token);
         if (t == "air") return Medium::air();
         if (t.rfind("n=", 0) == 0) {
             const double n = positive(line, token.substr(2), "constant index");
@@ -220,7 +202,7 @@ double layerIndex(const Parser& parser, int line, std::string_view token) {
 IdealReflectance parseIdealReflectance(const Parser& parser, int line, std::span<const std::string_view> tokens) {
     IdealReflectance ideal;
     for (const std::string_view token : tokens) {
-        if (lower(token.substr(0, 2)) == "r=") {
+        if (asciiLower(token.substr(0, 2)) == "r=") {
             if (tokens.size() != 1) parser.error(line, "an ideal coating takes either R= or wavelength_nm:R points, not both");
             ideal.wavelengthsNm.push_back(550.0);
             ideal.reflectances.push_back(parser.fraction(line, token.substr(2), "ideal coating reflectance R"));
@@ -247,7 +229,7 @@ void parseCoating(const Parser& parser, LensPrescription& p, int line,
     coating.name = std::string(tokens[1]);
     if (coating.name == "none" || coating.name == "mgf2")
         parser.error(line, "coating name '" + coating.name + "' is built in and cannot be redefined");
-    const std::string kind = lower(tokens[2]);
+    const std::string kind = asciiLower(tokens[2]);
     if (kind == "single") {
         std::optional<double> index, quarterWaveNm, thicknessNm;
         for (size_t i = 3; i < tokens.size(); ++i) {
@@ -281,7 +263,7 @@ void parseCoating(const Parser& parser, LensPrescription& p, int line,
 
 void parseHeader(const Parser& parser, LensPrescription& p, const Line& line) {
     const std::vector<std::string_view> tokens = splitWhitespace(line.text);
-    const std::string key = lower(tokens[0]);
+    const std::string key = asciiLower(tokens[0]);
     const std::string_view rest = trim(line.text.substr(tokens[0].size()));
     const int n = line.number;
     auto requireValue = [&] {
@@ -389,7 +371,7 @@ void parseHeader(const Parser& parser, LensPrescription& p, const Line& line) {
     } else if (key == "finish") {
         // finish housing|edges|iris diffuse=A glossy=G
         if (tokens.size() < 3) parser.error(n, "finish needs a part (housing, edges or iris) and diffuse=/glossy= values");
-        const std::string part = lower(tokens[1]);
+        const std::string part = asciiLower(tokens[1]);
         std::optional<FinishSpec>* target = part == "housing" ? &p.housingFinish
                                             : part == "edges" ? &p.edgeFinish
                                             : part == "iris"  ? &p.irisFinish
@@ -428,14 +410,14 @@ PrescriptionRow parseRow(const Parser& parser, const Line& line) {
                             std::to_string(columns));
     PrescriptionRow row;
     row.line = n;
-    const std::string radius = lower(tokens[0]);
+    const std::string radius = asciiLower(tokens[0]);
     if (radius == "stop") {
         row.isStop = true;
     } else {
         const double r = parser.number(n, tokens[0], "radius");
         row.radiusMm = std::isinf(r) ? 0.0 : r;
     }
-    const std::string thickness = lower(tokens[1]);
+    const std::string thickness = asciiLower(tokens[1]);
     if (thickness == "auto") {
         row.thickness.kind = ThicknessSpec::Kind::Auto;
     } else if (std::isalpha(static_cast<unsigned char>(tokens[1][0])) || tokens[1][0] == '_') {
@@ -528,7 +510,7 @@ LensPrescription parseLensText(std::string_view text, const std::string& fileNam
     for (const Line& line : lines) {
         lastLine = line.number;
         if (!inSurfaces) {
-            if (lower(line.text) == "surfaces" || lower(line.text) == "surfaces:") {
+            if (asciiLower(line.text) == "surfaces" || asciiLower(line.text) == "surfaces:") {
                 inSurfaces = true;
                 continue;
             }
@@ -614,7 +596,7 @@ LensPrescription loadLens(const std::string& pathOrName) {
 }
 
 LensPrescription loadLensFile(const std::string& path) {
-    const std::string extension = path.size() >= 4 ? lower(path.substr(path.size() - 4)) : "";
+    const std::string extension = path.size() >= 4 ? asciiLower(path.substr(path.size() - 4)) : "";
     if (extension == ".zmx") return loadZemaxFile(path);
     const std::string text = readFile(path);
     return extension == ".dat" ? parsePbrtLensText(text, path) : parseLensText(text, path);

@@ -27,25 +27,6 @@ constexpr double kMgF2DesignNm = 550.0;
 // The primary wavelength a file without wavelength lines has (OpticStudio's default).
 constexpr double kDefaultPrimaryUm = 0.55;
 
-std::string upper(std::string_view s) {
-    std::string out(s);
-    for (char& c : out) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-    return out;
-}
-
-std::vector<std::string_view> splitWhitespace(std::string_view line) {
-    std::vector<std::string_view> tokens;
-    size_t i = 0;
-    while (i < line.size()) {
-        while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
-        size_t j = i;
-        while (j < line.size() && !std::isspace(static_cast<unsigned char>(line[j]))) ++j;
-        if (j > i) tokens.push_back(line.substr(i, j - i));
-        i = j;
-    }
-    return tokens;
-}
-
 // The shortest text that reads back as the same double.
 std::string formatNumber(double value) {
     char buffer[64];
@@ -129,7 +110,7 @@ private:
                   bool infinityAllowed = false) const {
         if (index >= tokens.size()) fail(line, what + " is missing");
         const std::string_view token = tokens[index];
-        if (infinityAllowed && (upper(token) == "INFINITY" || upper(token) == "INF"))
+        if (infinityAllowed && (asciiUpper(token) == "INFINITY" || asciiUpper(token) == "INF"))
             return std::numeric_limits<double>::infinity();
         double value = 0.0;
         const char* begin = token.data() + (!token.empty() && token[0] == '+');
@@ -172,7 +153,7 @@ void ZemaxReader::readSurfaceLine(ZemaxSurface& s, const std::string& keyword,
     const int n = s.number;
     if (keyword == "TYPE") {
         if (tokens.size() < 2) failSurface(line, n, keyword, "the surface type is missing");
-        s.type = upper(tokens[1]);
+        s.type = asciiUpper(tokens[1]);
         s.typeLine = line;
     } else if (keyword == "CURV") {
         s.curvature = number(line, tokens, 1, "surface " + std::to_string(n) + ", CURV");
@@ -257,7 +238,7 @@ Medium ZemaxReader::medium(const ZemaxSurface& s, std::string* text) const {
         return Medium::air();
     }
     const GlassSpec& g = *s.glass;
-    const std::string name = upper(g.name);
+    const std::string name = asciiUpper(g.name);
     if (name == "MIRROR") failSurface(g.line, s.number, "GLAS", "mirrors are not supported (flare's lenses refract only)");
     if (g.status == 1 || name == "___BLANK") {
         // Model glass: GLAS name 1 0 nd vd dPgF ...
@@ -310,7 +291,7 @@ LensPrescription ZemaxReader::read(std::string_view bytes) {
         const std::vector<std::string_view> tokens = splitWhitespace(lineText);
         if (!tokens.empty()) {
             lastLine = lineNumber;
-            const std::string keyword = upper(tokens[0]);
+            const std::string keyword = asciiUpper(tokens[0]);
             const int line = lineNumber;
             if (keyword == "SURF") {
                 const int number = integer(line, tokens, 1, "SURF number");
@@ -322,10 +303,10 @@ LensPrescription ZemaxReader::read(std::string_view bytes) {
                 s.line = s.typeLine = line;
                 surfaces_.push_back(s);
             } else if (keyword == "MODE") {
-                if (tokens.size() < 2 || upper(tokens[1]) != "SEQ")
+                if (tokens.size() < 2 || asciiUpper(tokens[1]) != "SEQ")
                     fail(line, "MODE: only sequential files (MODE SEQ) can be read; non-sequential (NSC) systems are not lenses flare can trace");
             } else if (keyword == "UNIT") {
-                const std::string unit = tokens.size() > 1 ? upper(tokens[1]) : "";
+                const std::string unit = tokens.size() > 1 ? asciiUpper(tokens[1]) : "";
                 if (unit == "MM") mmPerUnit_ = 1.0;
                 else if (unit == "CM") mmPerUnit_ = 10.0;
                 else if (unit == "IN") mmPerUnit_ = 25.4;
@@ -340,7 +321,7 @@ LensPrescription ZemaxReader::read(std::string_view bytes) {
                 fNumber_ = number(line, tokens, 1, "FNUM");
                 if (!(*fNumber_ > 0.0)) fail(line, "FNUM: the f-number must be positive");
             } else if (keyword == "GCAT") {
-                for (size_t i = 1; i < tokens.size(); ++i) catalogs_.push_back(upper(tokens[i]));
+                for (size_t i = 1; i < tokens.size(); ++i) catalogs_.push_back(asciiUpper(tokens[i]));
             } else if (keyword == "WAVM") {
                 const int index = integer(line, tokens, 1, "WAVM number");
                 wavelengthsUm_[index] = number(line, tokens, 2, "WAVM wavelength");
@@ -459,7 +440,7 @@ LensPrescription ZemaxReader::read(std::string_view bytes) {
         row.mediumAfter = medium(s, &row.materialText);
         if (s.coating) {
             const auto& [coatingName, line] = *s.coating;
-            if (upper(coatingName) == "AR") {
+            if (asciiUpper(coatingName) == "AR") {
                 const double primaryNm = primaryUm * 1000.0;
                 if (primaryNm == kMgF2DesignNm) {
                     row.coatingName = "mgf2";
@@ -467,7 +448,7 @@ LensPrescription ZemaxReader::read(std::string_view bytes) {
                     if (!p.findCoating("AR")) p.coatings.push_back(Coating::quarterWave("AR", kMgF2Index, primaryNm));
                     row.coatingName = "AR";
                 }
-            } else if (upper(coatingName) != "NONE") {
+            } else if (asciiUpper(coatingName) != "NONE") {
                 warn(line, "surface " + std::to_string(n) + ", COAT: coating '" + coatingName +
                                "' is not one flare knows (only Zemax's AR is read): the surface is left uncoated");
             }
@@ -602,7 +583,7 @@ void ZemaxReader::buildZoom(LensPrescription& p, const std::vector<int>& rowOfSu
 
 // The catalogue a .zmx file names for a glass: an .agf catalogue's own name, the maker of a
 // built-in glass in capitals (its catalogue's file name).
-std::string catalogName(const CatalogGlass& glass) { return upper(glass.maker); }
+std::string catalogName(const CatalogGlass& glass) { return asciiUpper(glass.maker); }
 
 void line(std::string& out, const std::string& text) { out += text + "\r\n"; }
 
