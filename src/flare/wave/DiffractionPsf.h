@@ -74,7 +74,6 @@ public:
     // The smooth halo's energy per pixel at offset (px), per channel, normalised.
     glm::dvec3 smoothPerPixel(const glm::dvec2& offsetPx) const;
 
-    const glm::dmat2& pxPerRad() const { return pxPerRad_; }
     const std::vector<SpectralSample>& spectrum() const { return spectrum_; }
     // Radius (px) within which the coherent core is used (at the longest wavelength).
     double coherentRadiusPx() const { return coherentRadiusPx_; }
