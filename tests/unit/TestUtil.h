@@ -14,6 +14,7 @@
 
 #include "flare/optics/LensFile.h"
 #include "flare/optics/LensSystem.h"
+#include "flare/optics/PupilGrid.h"
 
 namespace flare::test {
 
@@ -58,6 +59,17 @@ inline CliRun runCli(const std::string& arguments) {
 }
 
 // Every lens shipped in lenses/.
+// An n × n lattice of pupil points over the whole grid (cell centres), so that traced rays meet
+// every kind of failure; an odd n leaves a partial SIMD vector at the end of a batch.
+inline std::vector<glm::dvec2> pupilLattice(const PupilGrid& grid, int n) {
+    std::vector<glm::dvec2> points;
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i)
+            points.push_back({-grid.halfSizeMm + (i + 0.5) * 2.0 * grid.halfSizeMm / n,
+                              -grid.halfSizeMm + (j + 0.5) * 2.0 * grid.halfSizeMm / n});
+    return points;
+}
+
 inline const char* const kShippedLenses[] = {
     "lenses/double-gauss-50mm.lens", "lenses/wide-angle-28mm.lens", "lenses/telephoto-180mm.lens",
     "lenses/fisheye-16mm.lens",      "lenses/zoom-24-70mm.lens",

@@ -14,16 +14,6 @@
 namespace flare {
 namespace {
 
-// A lattice of pupil points over the whole grid, so that rays meet every kind of failure.
-std::vector<glm::dvec2> lattice(const PupilGrid& grid, int n) {
-    std::vector<glm::dvec2> points;
-    for (int j = 0; j < n; ++j)
-        for (int i = 0; i < n; ++i)
-            points.push_back({-grid.halfSizeMm + (i + 0.5) * 2.0 * grid.halfSizeMm / n,
-                              -grid.halfSizeMm + (j + 0.5) * 2.0 * grid.halfSizeMm / n});
-    return points;
-}
-
 TEST(BundleTracer, EqualsTracePathBitForBitOnEveryShippedLens) {
     for (const char* file : test::kShippedLenses) {
         const LensSystem lens = test::loadLens(file);
@@ -31,7 +21,7 @@ TEST(BundleTracer, EqualsTracePathBitForBitOnEveryShippedLens) {
         const SpectralIndices indices = lens.indicesAt(520.0);
         std::vector<GhostPath> paths = enumerateGhosts(lens, 2, true);
         paths.insert(paths.begin(), GhostPath{});  // the direct path
-        const std::vector<glm::dvec2> points = lattice(grid, 20);
+        const std::vector<glm::dvec2> points = test::pupilLattice(grid, 20);
         long ok = 0;
         for (size_t p = 0; p < paths.size(); p += 3) {  // every third path keeps the test short
             const BundleTracer tracer(lens, indices, paths[p].reflections);
@@ -58,7 +48,7 @@ TEST(BundleTracer, StepByStepEqualsTheWholePathAndMarginsAgreeWithTheTests) {
     const LensSystem lens = test::loadLens("lenses/zoom-24-70mm.lens");
     const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(11.0, 8.0));
     const SpectralIndices indices = lens.indicesAt(550.0);
-    const std::vector<glm::dvec2> points = lattice(grid, 48);
+    const std::vector<glm::dvec2> points = test::pupilLattice(grid, 48);
     for (const GhostPath& ghost : {GhostPath{{28, 3}}, GhostPath{{13, 6}}, GhostPath{{22, 21}}, GhostPath{}}) {
         const BundleTracer tracer(lens, indices, ghost.reflections);
         std::vector<BundleLanding> whole(points.size());
@@ -155,7 +145,7 @@ TEST(BundleTracer, TablesChangeOnlyTheThroughput) {
     const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(11.0, 8.0));
     const SpectralIndices indices = lens.indicesAt(550.0);
     const InterfaceTables tables(lens, indices);
-    const std::vector<glm::dvec2> points = lattice(grid, 64);
+    const std::vector<glm::dvec2> points = test::pupilLattice(grid, 64);
     int ok = 0;
     for (const GhostPath& ghost : {GhostPath{{28, 3}}, GhostPath{{26, 24}}, GhostPath{}}) {
         const BundleTracer exact(lens, indices, ghost.reflections), tabled(lens, indices, ghost.reflections, true, &tables);

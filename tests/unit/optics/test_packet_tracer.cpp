@@ -19,17 +19,6 @@
 namespace flare {
 namespace {
 
-// A lattice of pupil points over the whole grid, so that rays meet every kind of failure. An odd
-// count leaves a partial vector at the end of the last batch.
-std::vector<glm::dvec2> lattice(const PupilGrid& grid, int n) {
-    std::vector<glm::dvec2> points;
-    for (int j = 0; j < n; ++j)
-        for (int i = 0; i < n; ++i)
-            points.push_back({-grid.halfSizeMm + (i + 0.5) * 2.0 * grid.halfSizeMm / n,
-                              -grid.halfSizeMm + (j + 0.5) * 2.0 * grid.halfSizeMm / n});
-    return points;
-}
-
 // Runs `body` once per instruction set that Highway compiled and this processor supports, with
 // the dispatcher forced to it; the name goes into failure messages.
 template <class Body>
@@ -83,7 +72,7 @@ TEST(PacketTracer, EqualsTracePathBitForBitOnEveryShippedLensAndInstructionSet) 
             // The direct path, then sequences no ray completes: out through the front, at the
             // sensor too early.
             paths.insert(paths.begin(), {GhostPath{}, GhostPath{{2}}, GhostPath{{3, 1, 0}}});
-            const std::vector<glm::dvec2> points = lattice(grid, 23);
+            const std::vector<glm::dvec2> points = test::pupilLattice(grid, 23);
             for (size_t p = 0; p < paths.size(); p += p < 3 ? 1 : 5) {  // every fifth ghost keeps it short
                 const std::string what = target + " " + file + " " + paths[p].label();
                 for (bool weights : {false, true}) {
@@ -105,7 +94,7 @@ TEST(PacketTracer, WithTablesEqualsBundleTracerBitForBit) {
     const SpectralIndices indices = lens.indicesAt(610.0);
     const InterfaceTables tables(lens, indices);
     const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(4.0, -7.0));
-    const std::vector<glm::dvec2> points = lattice(grid, 41);
+    const std::vector<glm::dvec2> points = test::pupilLattice(grid, 41);
     forEachTarget([&](const std::string& target) {
         for (const GhostPath& ghost : {GhostPath{}, GhostPath{{4, 1}}, GhostPath{{11, 8}}, GhostPath{{9, 0}}}) {
             const BundleTracer bundle(lens, indices, ghost.reflections, true, &tables);
@@ -138,7 +127,7 @@ TEST(PacketTracer, ConicsAndARoundIrisEqualTracePath) {
     const LensSystem lens = LensSystem::build(prescription);
     const SpectralIndices indices = lens.indicesAt(480.0);
     const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(-12.0, 5.0));
-    const std::vector<glm::dvec2> points = lattice(grid, 37);
+    const std::vector<glm::dvec2> points = test::pupilLattice(grid, 37);
     forEachTarget([&](const std::string& target) {
         Seen seen;
         for (const GhostPath& ghost : {GhostPath{}, GhostPath{{28, 3}}, GhostPath{{13, 6}}, GhostPath{{22, 21}}}) {
@@ -158,7 +147,7 @@ TEST(PacketTracer, FarOriginsEqualTracePath) {
     PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(2.0, 1.0));
     grid.backOffMm += 400.0;
     ASSERT_GT(grid.backOffMm, kConicFarOrigin * std::abs(lens.surface(0).radiusMm) * 2.0);
-    const std::vector<glm::dvec2> points = lattice(grid, 19);
+    const std::vector<glm::dvec2> points = test::pupilLattice(grid, 19);
     forEachTarget([&](const std::string& target) {
         Seen seen;
         const PacketTracer tracer(BundleTracer(lens, indices, {}, true));
