@@ -18,6 +18,7 @@
 #include "flare/ghosts/KeyIndex.h"
 #include "flare/ghosts/MarginModel.h"
 #include "flare/ghosts/PupilMesh.h"
+#include "flare/optics/PacketTracer.h"
 
 namespace flare::mesher {
 
@@ -208,9 +209,12 @@ private:
     // region's bitmap.
     void meshCells(PupilMesh* mesh);
 
-    const BundleTracer& weighted_;
-    const BundleTracer tracer_;  // geometry only when searching: the search needs no Fresnel factors
-    const BundleTracer* stepping_ = &tracer_;  // the tracer new rays are followed with
+    // The path in SIMD packets (bit for bit BundleTracer's, so the mesh is the same on every
+    // instruction set): with its factors, and geometry only when searching (the search needs no
+    // Fresnel factors).
+    const PacketTracer weighted_;
+    const PacketTracer tracer_;
+    const PacketTracer* stepping_ = &tracer_;  // the tracer new rays are followed with
     const PupilGrid& grid_;
     PupilMeshOptions o_;
     const LensSystem& lens_;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 
 #include "flare/optics/Fresnel.h"
 
@@ -31,7 +32,14 @@ struct PacketLanes {
     // the scalar code (no tables, or a cosine in the tables' exact zone).
     alignas(64) double cosine[kPacketBatch];
     alignas(64) double scalarWeight[kPacketBatch];
+    // The step's constraint as StepOutcome::margin (when the step is asked for margins).
+    alignas(64) double margin[kPacketBatch];
 };
+
+// Which margins a step writes: none (trace), those BundleTracer::advance gives without margins
+// (a clear aperture's, −1 through the iris), or all of them (the iris's, total internal
+// reflection's too).
+enum class PacketMargins : std::uint8_t { None, Cheap, All };
 
 // What a vector step left to the scalar code (flags), and how many rays it left going.
 inline constexpr int kDeferredRays = 1, kScalarWeights = 2;
@@ -93,13 +101,19 @@ HWY_INLINE V LookupTable(D d, const detail::PacketStep& s, hn::Mask<D> tabled, V
 // A refraction runs as two loops over the batch, the intersection and then the new direction:
 // each iteration's chain of divisions and square roots is then short enough for the processor
 // to overlap several iterations (one loop doing both was bound by their latency).
-detail::PacketStepResult AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b, size_t count) {
+//
+// With margins, every ray going into the step gets its StepOutcome::margin in b.margin, the same
+// bits as BundleTracer::applyStep's (deferred rays excepted: the scalar step gives theirs).
+detail::PacketStepResult AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b, size_t count,
+                                       detail::PacketMargins margins) {
     using Kind = detail::PacketStep::Kind;
     const hn::ScalableTag<double> d;
     using V = hn::Vec<decltype(d)>;
     using M = hn::Mask<decltype(d)>;
     const size_t lanes = hn::Lanes(d);
     const V zero = hn::Zero(d), one = hn::Set(d, 1.0), two = hn::Set(d, 2.0);
+    const V undefined = hn::Set(d, std::numeric_limits<double>::quiet_NaN());
+    const bool anyMargins = margins != detail::PacketMargins::None;
     const double base = detail::fateCode(step, TraceStatus::Ok);
     int left = 0;
     size_t going = 0;
@@ -127,6 +141,7 @@ detail::PacketStepResult AdvancePacket(const detail::PacketStep& s, int step, de
         const V ox = hn::Load(d, b.ox + i), oy = hn::Load(d, b.oy + i), oz = hn::Load(d, b.oz + i);
         const V dx = hn::Load(d, b.dx + i), dy = hn::Load(d, b.dy + i), dz = hn::Load(d, b.dz + i);
         V px = ox, py = oy, pz = oz;
+        V margin = undefined;  // a ray that misses the surface has none
 
         if (s.kind == Kind::Sensor) {
             fail(hn::Le(dz, zero), TraceStatus::Missed);
@@ -181,15 +196,24 @@ detail::PacketStepResult AdvancePacket(const detail::PacketStep& s, int step, de
             const V r2 = hn::Add(hn::Mul(px, px), hn::Mul(py, py));
             if (s.kind == Kind::Stop) {
                 if (s.roundIris) {
-                    fail(hn::Not(hn::Le(r2, hn::Set(d, s.irisInner2Mm2))), TraceStatus::BlockedByIris);
+                    // Iris::margin of a round iris; −1 without margins (undefined where blocked).
+                    const M blocked = hn::Not(hn::Le(r2, hn::Set(d, s.irisInner2Mm2)));
+                    if (margins == detail::PacketMargins::All)
+                        margin = hn::IfThenElse(alive, hn::Sub(hn::Div(r2, hn::Set(d, s.irisInner2Mm2)), one), margin);
+                    else if (margins == detail::PacketMargins::Cheap)
+                        margin = hn::IfThenElse(hn::AndNot(blocked, alive), hn::Set(d, -1.0), margin);
+                    fail(blocked, TraceStatus::BlockedByIris);
                 } else {
                     fail(hn::Gt(r2, hn::Set(d, s.irisOuter2Mm2)), TraceStatus::BlockedByIris);
                     defer(hn::Not(hn::Le(r2, hn::Set(d, s.irisInner2Mm2))));  // near the blades: Iris::contains
+                    if (margins == detail::PacketMargins::Cheap) margin = hn::IfThenElse(alive, hn::Set(d, -1.0), margin);
                 }
             } else {
+                if (anyMargins) margin = hn::IfThenElse(alive, hn::Sub(hn::Mul(r2, hn::Set(d, s.inverseAperture2PerMm2)), one), margin);
                 fail(hn::Gt(r2, hn::Set(d, s.aperture2Mm2)), TraceStatus::Vignetted);
             }
         }
+        if (anyMargins) hn::Store(margin, d, b.margin + i);
         hn::Store(hn::IfThenElse(alive, px, ox), d, b.ox + i);
         hn::Store(hn::IfThenElse(alive, py, oy), d, b.oy + i);
         hn::Store(hn::IfThenElse(alive, pz, oz), d, b.oz + i);
@@ -260,6 +284,18 @@ detail::PacketStepResult AdvancePacket(const detail::PacketStep& s, int step, de
             const V sin2I = hn::Sub(one, hn::Mul(cosI, cosI));
             const V sin2T = hn::Mul(hn::Set(d, s.eta * s.eta), hn::IfThenElse(hn::Lt(zero, sin2I), sin2I, zero));
             const M tir = hn::And(hn::Ge(sin2T, one), alive);
+            if (anyMargins) {
+                // The test refract() makes, as a margin: sin²θt − 1 (std::max's operand order).
+                V m = hn::Load(d, b.margin + i);
+                if (margins == detail::PacketMargins::All) {
+                    const V tirMargin = hn::Sub(sin2T, one);
+                    m = hn::IfThenElse(alive, hn::IfThenElse(hn::Lt(m, tirMargin), tirMargin, m), m);
+                    m = hn::IfThenElse(tir, hn::IfThenElse(hn::Lt(m, zero), zero, m), m);
+                } else {
+                    m = hn::IfThenElse(tir, undefined, m);
+                }
+                hn::Store(m, d, b.margin + i);
+            }
             fate = hn::IfThenElse(tir, hn::Set(d, base + static_cast<double>(TraceStatus::TotalInternalReflection)), fate);
             alive = hn::AndNot(tir, alive);
             const V k = hn::Sub(hn::Mul(eta, cosI), hn::Sqrt(hn::Sub(one, sin2T)));
@@ -344,6 +380,7 @@ PacketTracer::PacketTracer(const BundleTracer& path) : path_(path) {
                 s.radiusMm = surface.radiusMm;
                 s.centreZMm = surface.vertexZMm + surface.radiusMm;
                 s.aperture2Mm2 = surface.semiApertureMm * surface.semiApertureMm;
+                s.inverseAperture2PerMm2 = 1.0 / s.aperture2Mm2;
                 s.eta = bs.n1 / bs.n2;
                 s.normal = surface.radiusMm == 0.0   ? detail::PacketStep::Normal::Plane
                            : surface.conic == 0.0 ? detail::PacketStep::Normal::Sphere
@@ -389,6 +426,81 @@ int scalarStep(const BundleTracer& path, int step, detail::PacketLanes& b, const
 
 }  // namespace
 
+void PacketTracer::scalarWeights(const detail::PacketStep& s, detail::PacketLanes& b, int active) const {
+    // BundleTracer's factors, one ray at a time (deferred rays get theirs in the scalar step).
+    const InterfaceTables* tables = path_.tables_;
+    for (int i = 0; i < active; ++i) {
+        if (b.scalarWeight[i] == 0.0) continue;
+        const double c = b.cosine[i];
+        if (tables) {
+            b.throughput[i] *= s.reflect ? tables->reflectance(s.surface, s.direction, c)
+                                         : tables->transmittance(s.surface, s.direction, c);
+        } else {
+            const FresnelTerms f = interfaceResponse(*path_.lens_, path_.indices_, s.surface, s.direction, c);
+            b.throughput[i] *= s.reflect ? f.reflectance() : f.transmittance();
+        }
+    }
+}
+
+void PacketTracer::advance(int step, std::span<BundleRay> rays, std::span<StepOutcome> outcomes, bool margins) const {
+    using Kind = detail::PacketStep::Kind;
+    const detail::PacketStep& s = steps_[step];
+    // The sensor (no square root to save), aspheres, and a polygonal iris's margins (its sector
+    // search) take BundleTracer's step.
+    if (s.kind == Kind::Sensor || s.kind == Kind::WrongExit || s.kind == Kind::Scalar ||
+        (s.kind == Kind::Stop && !s.roundIris && margins)) {
+        path_.advance(step, rays, outcomes, margins);
+        return;
+    }
+    constexpr int kLanes = detail::kPacketMaxLanes;
+    const detail::PacketMargins wanted = margins ? detail::PacketMargins::All : detail::PacketMargins::Cheap;
+    detail::PacketLanes b;
+    BundleRay deferredRays[detail::kPacketBatch];
+    StepOutcome deferredOutcomes[detail::kPacketBatch];
+    int which[detail::kPacketBatch];
+    for (size_t begin = 0; begin < rays.size(); begin += detail::kPacketBatch) {
+        const int count = static_cast<int>(std::min<size_t>(detail::kPacketBatch, rays.size() - begin));
+        const int active = (count + kLanes - 1) / kLanes * kLanes;
+        for (int i = 0; i < active; ++i) {
+            const BundleRay r = i < count ? rays[begin + i] : BundleRay{};
+            b.ox[i] = r.ray.originMm.x, b.oy[i] = r.ray.originMm.y, b.oz[i] = r.ray.originMm.z;
+            b.dx[i] = r.ray.direction.x, b.dy[i] = r.ray.direction.y, b.dz[i] = r.ray.direction.z;
+            b.throughput[i] = r.throughput;
+            b.fate[i] = i < count ? 0.0 : 1.0;  // padding lanes never run
+        }
+        const detail::PacketStepResult result =
+            HWY_DYNAMIC_DISPATCH(AdvancePacket)(s, step, b, static_cast<size_t>(active), wanted);
+        if (result.left & detail::kScalarWeights) scalarWeights(s, b, active);
+        int deferred = 0;
+        for (int i = 0; i < count; ++i) {
+            if ((result.left & detail::kDeferredRays) && b.deferred[i] != 0.0) {
+                deferredRays[deferred] = rays[begin + i];
+                which[deferred++] = i;
+                continue;
+            }
+            StepOutcome& o = outcomes[begin + i];
+            o = StepOutcome{};
+            o.margin = b.margin[i];
+            if (b.fate[i] != 0.0) {
+                o.alive = false;
+                o.failure = static_cast<TraceStatus>((static_cast<int>(b.fate[i]) - 1) % 8);
+                continue;
+            }
+            BundleRay& r = rays[begin + i];
+            r.ray.originMm = {b.ox[i], b.oy[i], b.oz[i]};
+            r.ray.direction = {b.dx[i], b.dy[i], b.dz[i]};
+            r.throughput = b.throughput[i];
+        }
+        if (deferred == 0) continue;
+        path_.advance(step, std::span<BundleRay>(deferredRays, deferred), std::span<StepOutcome>(deferredOutcomes, deferred),
+                      margins);
+        for (int j = 0; j < deferred; ++j) {
+            rays[begin + which[j]] = deferredRays[j];
+            outcomes[begin + which[j]] = deferredOutcomes[j];
+        }
+    }
+}
+
 void PacketTracer::trace(const PupilGrid& grid, std::span<const glm::dvec2> pupilMm, std::span<BundleLanding> out) const {
     constexpr int kLanes = detail::kPacketMaxLanes;
     detail::PacketLanes b;
@@ -432,24 +544,10 @@ void PacketTracer::trace(const PupilGrid& grid, std::span<const glm::dvec2> pupi
                     if (b.fate[i] == 0.0) which[n++] = i;
                 going = scalarStep(path_, step, b, which, n);
             } else {
-                const detail::PacketStepResult result =
-                    HWY_DYNAMIC_DISPATCH(AdvancePacket)(s, step, b, static_cast<size_t>(active));
+                const detail::PacketStepResult result = HWY_DYNAMIC_DISPATCH(AdvancePacket)(
+                    s, step, b, static_cast<size_t>(active), detail::PacketMargins::None);
                 going = result.going;
-                if (result.left & detail::kScalarWeights) {
-                    // BundleTracer's factors, one ray at a time (deferred rays get theirs below).
-                    const InterfaceTables* tables = path_.tables_;
-                    for (int i = 0; i < active; ++i) {
-                        if (b.scalarWeight[i] == 0.0) continue;
-                        const double c = b.cosine[i];
-                        if (tables)
-                            b.throughput[i] *= s.reflect ? tables->reflectance(s.surface, s.direction, c)
-                                                         : tables->transmittance(s.surface, s.direction, c);
-                        else {
-                            const FresnelTerms f = interfaceResponse(lens, path_.indices_, s.surface, s.direction, c);
-                            b.throughput[i] *= s.reflect ? f.reflectance() : f.transmittance();
-                        }
-                    }
-                }
+                if (result.left & detail::kScalarWeights) scalarWeights(s, b, active);
                 if (result.left & detail::kDeferredRays) {
                     for (int i = 0; i < active; ++i)
                         if (b.deferred[i] != 0.0) which[n++] = i;

@@ -26,6 +26,8 @@ namespace flare {
 
 namespace detail {
 
+struct PacketLanes;
+
 // One event of the path with the constants its vector kernel needs (internal to PacketTracer).
 struct PacketStep {
     enum class Kind : std::uint8_t {
@@ -45,7 +47,7 @@ struct PacketStep {
     int surface = 0, direction = 1;  // as BundleTracer's step (for the Fresnel/coating factor)
     double vertexZMm = 0.0, curvaturePerMm = 0.0, conicFactor = 1.0, radiusMm = 0.0;
     double centreZMm = 0.0;       // a sphere's centre of curvature
-    double aperture2Mm2 = 0.0;
+    double aperture2Mm2 = 0.0, inverseAperture2PerMm2 = 0.0;  // the clear aperture's semi-diameter squared
     double eta = 1.0;             // n1 / n2
     double irisInner2Mm2 = 0.0;   // Stop: squared radius within which every point passes
     double irisOuter2Mm2 = 0.0;   // Stop: beyond it none passes (between: the scalar test)
@@ -69,11 +71,18 @@ public:
     // bit tracePath's (with the BundleTracer's tables, equal to BundleTracer's).
     void trace(const PupilGrid& grid, std::span<const glm::dvec2> pupilMm, std::span<BundleLanding> out) const;
 
+    // As BundleTracer::advance: step `step` for every ray (all alive), the same rays, outcomes and
+    // margins to the last bit.
+    void advance(int step, std::span<BundleRay> rays, std::span<StepOutcome> outcomes, bool margins) const;
+    int stepCount() const { return path_.stepCount(); }
+
     const BundleTracer& path() const { return path_; }
     // The instruction set the dispatcher chose on this processor, e.g. "AVX3" (AVX-512) or "AVX2".
     static const char* targetName();
 
 private:
+    void scalarWeights(const detail::PacketStep& s, detail::PacketLanes& b, int active) const;
+
     BundleTracer path_;
     std::vector<detail::PacketStep> steps_;
 };

@@ -186,5 +186,77 @@ TEST(PacketTracer, NonFiniteFarAndEdgeRaysEqualTracePath) {
     });
 }
 
+// Step by step (what the pupil mesher does): every step's rays, outcomes and margins equal
+// BundleTracer::advance's to the last bit (NaN where it has none), with and without margins, on
+// a round and a polygonal iris, with and without tables, and for batches that are not a
+// multiple of the vector length.
+TEST(PacketTracer, AdvanceEqualsBundleTracerStepByStep) {
+    struct Case {
+        const char* file;
+        bool roundIris;
+    };
+    long compared[2] = {}, marginsSeen = 0, nanSeen = 0;
+    for (const Case& c : {Case{"lenses/double-gauss-50mm.lens", false}, Case{"lenses/double-gauss-50mm.lens", true},
+                          Case{"lenses/zoom-24-70mm.lens", false}, Case{"lenses/fisheye-16mm.lens", false}}) {
+        LensPrescription prescription = loadLensFile(test::sourcePath(c.file));
+        if (c.roundIris) prescription.iris.blades = 0;
+        const LensSystem lens = LensSystem::build(prescription);
+        const SpectralIndices indices = lens.indicesAt(530.0);
+        const InterfaceTables tables(lens, indices);
+        const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(7.0, -3.0));
+        const std::vector<glm::dvec2> points = test::pupilLattice(grid, 29);
+        std::vector<GhostPath> paths = enumerateGhosts(lens, 2, true);
+        paths.insert(paths.begin(), GhostPath{});
+        forEachTarget([&](const std::string& target) {
+            for (size_t p = 0; p < paths.size(); p += p == 0 ? 1 : 7) {
+                for (int variant = 0; variant < 3; ++variant) {
+                    const BundleTracer bundle(lens, indices, paths[p].reflections, variant > 0,
+                                              variant == 2 ? &tables : nullptr);
+                    const PacketTracer packets(bundle);
+                    for (bool margins : {false, true}) {
+                        const std::string what = target + " " + c.file + (c.roundIris ? " round " : " ") +
+                                                 paths[p].label() + " variant " + std::to_string(variant) +
+                                                 (margins ? " margins" : "");
+                        std::vector<BundleRay> expected, rays;
+                        for (const glm::dvec2& q : points) expected.push_back({grid.ray(q.x, q.y), 1.0});
+                        expected.resize(expected.size() - 3);  // not a multiple of any vector length
+                        rays = expected;
+                        for (int step = 0; step < bundle.stepCount() && !rays.empty(); ++step) {
+                            std::vector<StepOutcome> want(rays.size()), got(rays.size());
+                            bundle.advance(step, expected, want, margins);
+                            packets.advance(step, rays, got, margins);
+                            size_t kept = 0;
+                            for (size_t i = 0; i < rays.size(); ++i) {
+                                ASSERT_EQ(got[i].alive, want[i].alive) << what << " step " << step << " ray " << i;
+                                ASSERT_EQ(got[i].failure, want[i].failure) << what << " step " << step << " ray " << i;
+                                ASSERT_EQ(std::isnan(got[i].margin), std::isnan(want[i].margin)) << what << " step " << step;
+                                if (!std::isnan(want[i].margin))
+                                    ASSERT_EQ(got[i].margin, want[i].margin) << what << " step " << step << " ray " << i;
+                                marginsSeen += !std::isnan(want[i].margin) && want[i].margin != -1.0;
+                                nanSeen += std::isnan(want[i].margin);
+                                ++compared[margins];
+                                if (!want[i].alive) continue;
+                                ASSERT_EQ(rays[i].throughput, expected[i].throughput) << what << " step " << step;
+                                for (int k = 0; k < 3; ++k) {
+                                    ASSERT_EQ(rays[i].ray.originMm[k], expected[i].ray.originMm[k]) << what << " step " << step;
+                                    ASSERT_EQ(rays[i].ray.direction[k], expected[i].ray.direction[k]) << what << " step " << step;
+                                }
+                                rays[kept] = rays[i];
+                                expected[kept++] = expected[i];
+                            }
+                            rays.resize(kept);
+                            expected.resize(kept);
+                        }
+                    }
+                }
+            }
+        });
+    }
+    EXPECT_GT(compared[0], 10000);
+    EXPECT_GT(compared[1], 10000);
+    EXPECT_GT(marginsSeen, 10000);
+    EXPECT_GT(nanSeen, 100);
+}
+
 }  // namespace
 }  // namespace flare
