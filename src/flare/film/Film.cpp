@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <istream>
+#include <mutex>
 #include <numbers>
 #include <ostream>
 #include <stdexcept>
@@ -314,21 +315,29 @@ std::vector<float> Film::varianceRgb(int group) const {
 }
 
 Film::ErrorEstimate Film::errorEstimate(int group) const {
-    ErrorEstimate e;
-    if (passes_ < 2) return e;
-    const double n = passes_;
+    if (passes_ < 2) return {};
     const Group& g = groups_.at(group);
-    for (int y = 0; y < settings_.heightPx; ++y)
-        for (int x = 0; x < settings_.widthPx; ++x) {
-            const double* s = g.sumPasses->find(x, y);
-            if (!s) continue;
-            const double* q = g.sumSquares->find(x, y);
-            for (int c = 0; c < 3; ++c) {
-                const double mean = s[c] / n;
-                e.sumVariance += std::max(0.0, (q[c] - n * mean * mean) / (n - 1.0)) / n;
-                e.squaredNorm += mean * mean;
-            }
+    // The render loop asks after every pass (to stop, for the progress bar, for the report): the
+    // sums are kept until the next pass changes them.
+    std::lock_guard<std::mutex> lock(*estimateMutex_);
+    if (estimates_.size() != groups_.size()) estimates_.assign(groups_.size(), {});
+    if (estimates_[group].passes == passes_) return estimates_[group].estimate;
+    ErrorEstimate e;
+    const double n = passes_;
+    // Tile by tile over the tiles that exist (a pixel no pass reached has no variance).
+    const Tiles& sums = *g.sumPasses;
+    const Tiles& squares = *g.sumSquares;
+    for (size_t t = 0; t < sums.tiles.size(); ++t) {
+        const double* s = sums.tiles[t].get();
+        if (!s) continue;
+        const double* q = squares.tiles[t].get();  // allocated with it
+        for (int i = 0; i < kTilePx * kTilePx * 3; ++i) {
+            const double mean = s[i] / n;
+            e.sumVariance += std::max(0.0, (q[i] - n * mean * mean) / (n - 1.0)) / n;
+            e.squaredNorm += mean * mean;
         }
+    }
+    estimates_[group] = {passes_, e};
     return e;
 }
 
@@ -398,6 +407,8 @@ void Film::load(std::istream& in) {
     counts_ = std::move(counts);
     pendingCounts_ = counts_;
     passes_ = passes;
+    std::lock_guard<std::mutex> lock(*estimateMutex_);
+    estimates_.clear();
 }
 
 }  // namespace flare

@@ -27,6 +27,7 @@
 #include <cstdint>
 #include <iosfwd>
 #include <memory>
+#include <mutex>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -140,6 +141,13 @@ private:
     // Adaptive kernel: photon counts per layer on a grid of kCountBlock² pixel blocks.
     std::vector<std::vector<std::uint32_t>> counts_, pendingCounts_;
     int countW_ = 0, countH_ = 0;
+    // errorEstimate's last answer per group, valid while `passes` equals passes_.
+    struct CachedEstimate {
+        int passes = -1;
+        ErrorEstimate estimate;
+    };
+    mutable std::vector<CachedEstimate> estimates_;
+    std::unique_ptr<std::mutex> estimateMutex_ = std::make_unique<std::mutex>();  // (movable)
 };
 
 }  // namespace flare
