@@ -132,6 +132,10 @@ PhotonTracer::PhotonTracer(const LensSystem& lens, const InteriorMaterials& mate
 
 PhotonTracer::~PhotonTracer() = default;
 
+void PhotonTracer::tabulateReflectance() {
+    if (!reflectance_) reflectance_ = std::make_shared<const SpectralReflectance>(*lens_);
+}
+
 std::unique_ptr<PhotonTracer::Scratch> PhotonTracer::makeScratch() const {
     auto scratch = std::make_unique<Scratch>();
     for (const BulkMedium& m : media_)
@@ -403,8 +407,13 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
             }
         }
         const double cosThetaI = std::min(1.0, std::abs(glm::dot(normal, ray.direction)));
-        const FresnelTerms response = interfaceResponse(lens, indices, k, forward ? 1 : -1, cosThetaI);
-        const double reflectance = response.totalInternalReflection ? 1.0 : response.reflectance();
+        double reflectance = 1.0;
+        if (reflectance_) {
+            reflectance = reflectance_->reflectance(k, forward ? 1 : -1, indices.wavelengthNm, indices, cosThetaI);
+        } else {
+            const FresnelTerms response = interfaceResponse(lens, indices, k, forward ? 1 : -1, cosThetaI);
+            reflectance = response.totalInternalReflection ? 1.0 : response.reflectance();
+        }
         glm::dvec3 refracted;
         if (rng.uniform() < reflectance || !refract(ray.direction, normal, n1, n2, &refracted)) {
             if (!addReflection(k)) {

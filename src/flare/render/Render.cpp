@@ -148,6 +148,7 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
       tracer_(lens, options.materials, options.maxBounces, options.contamination, options.media),
       film_(options.film, kFixedLayerCount) {
     for (int l = 0; l < kFixedLayerCount; ++l) layerNames_.push_back(renderLayerName(l));
+    if (options.tabulatedReflectance) tracer_.tabulateReflectance();
     std::unordered_map<std::string, int> ghostLayerOfLabel;
     const InteriorMaterials& m = options.materials;
     const bool anyScattering = m.housingAlbedo + m.edgeAlbedo + m.irisAlbedo + m.housingGlossy + m.edgeGlossy +
@@ -947,7 +948,7 @@ std::uint64_t Renderer::fingerprint() const {
                         static_cast<int>(options_.film.kernel), lens_->surfaceCount(), options_.beamsPerPass,
                         options_.correctionPhotonsPerBeam, options_.beamMeshLevel,
                         static_cast<int>(std::lround(options_.testBeamShiftPx * 1024.0)), options_.maxAnalysedChains,
-                        options_.smoothNeighbours};
+                        options_.smoothNeighbours, options_.tabulatedReflectance ? 1 : 0};
     mix(ints, sizeof ints);
     for (const Component& c : components_) {
         mix(&c.light, sizeof c.light);

@@ -84,6 +84,9 @@ struct RenderOptions {
     // Fault injection for tests only: moves every beam's image by this many pixels (to the
     // right), which biases the render; the tests check that their comparisons catch it.
     double testBeamShiftPx = 0.0;
+    // The photon tracer's reflect-or-refract probabilities from a SpectralReflectance table
+    // (PhotonTracer::tabulateReflectance) rather than the exact coating response.
+    bool tabulatedReflectance = true;
     // Chains of four reflections (the `higher` layer): the strongest are enumerated and guided
     // like ghosts when the lens's reflectances make them matter (Auto: when the estimated ratio of
     // their power to the ghosts', higherOrderShareEstimate, reaches the threshold), else they are
