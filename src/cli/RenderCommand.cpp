@@ -240,6 +240,7 @@ int run(const RenderCommandOptions& o) {
     auto lastCheckpoint = start;
     auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
     bool interrupted = false;
+    double lastPrintS = -1.0;
     for (;;) {
         if (stop.reached(renderer, elapsed())) break;
         if (gInterrupted.load() && renderer.statistics().passes == 0) {
@@ -248,9 +249,12 @@ int run(const RenderCommandOptions& o) {
             return 130;
         }
         renderer.runPass();
-        if (!o.quiet)
+        // The progress line (whose error estimate scans the film) at most four times a second.
+        if (!o.quiet && elapsed() - lastPrintS >= 0.25) {
             printProgress(renderer, progressFraction(renderer, stop.passesWanted * perPass, o.timeS, o.targetError, elapsed()),
                           o.targetError, elapsed());
+            lastPrintS = elapsed();
+        }
         if (gInterrupted.load()) {
             interrupted = true;
             break;
@@ -261,6 +265,9 @@ int run(const RenderCommandOptions& o) {
         }
     }
     std::signal(SIGINT, previous);
+    if (!o.quiet && renderer.statistics().passes > 0)
+        printProgress(renderer, progressFraction(renderer, stop.passesWanted * perPass, o.timeS, o.targetError, elapsed()),
+                      o.targetError, elapsed());
     if (!o.quiet) std::fprintf(stderr, "\n");
     if (interrupted) {
         renderer.saveCheckpoint(checkpoint);

@@ -43,7 +43,9 @@ inline constexpr int kMinPassesToStop = 8;
 // When a render stops: at the target error (the estimated relative L2 error of the flare without
 // the direct image), the time or the photon count, whichever is reached first, and never before two
 // passes (so that the variance estimate exists). Without a time or a photon count, the scene's
-// photon count is the limit, so that a target the scene cannot reach still ends.
+// photon count is the limit, so that a target the scene cannot reach still ends. The target is
+// checked after every pass up to 16, then every (passes / 16)-th pass (the estimate scans the
+// whole film).
 struct RenderStopRule {
     std::int64_t passesWanted = 0;  // 0: no photon limit
     double timeS = 0.0;             // 0: no time limit
