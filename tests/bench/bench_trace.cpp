@@ -4,6 +4,9 @@
 // same pupil points, so that one run gives their ratio.
 #include <atomic>
 #include <cstdint>
+#include <fstream>
+#include <iterator>
+#include <string>
 #include <random>
 #include <vector>
 
@@ -19,6 +22,7 @@
 #include "flare/optics/PupilGrid.h"
 #include "flare/optics/RealRays.h"
 #include "flare/optics/SequentialTracer.h"
+#include "flare/optics/SpectralReflectance.h"
 
 namespace {
 
@@ -177,6 +181,52 @@ void BM_PacketTracerPerTarget(benchmark::State& state) {
     hwy::SetSupportedTargetsForTest(0);
 }
 BENCHMARK(BM_PacketTracerPerTarget)->DenseRange(0, 4);
+
+// The photon tracer's reflectance (one interface event): the exact coating response against the
+// SpectralReflectance table, on the double Gauss with its single MgF2 layer (coating 0) and with
+// a four-layer broadband stack on every air-glass surface (coating 1). Random interfaces,
+// directions, wavelengths and cosines, the same for both.
+void BM_Reflectance(benchmark::State& state) {
+    const bool tabled = state.range(0) != 0;
+    std::ifstream file(std::string(FLARE_SOURCE_DIR) + "/lenses/double-gauss-50mm.lens");
+    std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+    const std::string single = "default_coating mgf2";
+    if (state.range(1) != 0)
+        text.replace(text.find(single), single.size(),
+                     "coating bbar stack 1.38:99.6 2.10:114.5 1.62:84.9 2.10:30.0\ndefault_coating bbar");
+    const LensSystem lens = LensSystem::build(parseLensText(text, "double-gauss-50mm.lens"));
+    const SpectralReflectance table(lens, SpectralReflectance::Tabulate::All);
+    struct Event {
+        int surface, direction;
+        double wavelengthNm, cosine;
+        SpectralIndices indices;
+    };
+    std::mt19937_64 rng(3);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    std::vector<Event> events;
+    while (events.size() < 4096) {
+        const int k = static_cast<int>(u(rng) * lens.surfaceCount());
+        if (k >= lens.surfaceCount() || lens.surface(k).isStop) continue;
+        const double wavelengthNm = 400.0 + 300.0 * u(rng);
+        events.push_back({k, u(rng) < 0.5 ? -1 : 1, wavelengthNm, 0.5 + 0.5 * u(rng), lens.indicesAt(wavelengthNm)});
+    }
+    double sum = 0.0;
+    for (auto _ : state) {
+        for (const Event& e : events) {
+            if (tabled) {
+                sum += table.reflectance(e.surface, e.direction, e.wavelengthNm, e.indices, e.cosine);
+            } else {
+                const FresnelTerms r = interfaceResponse(lens, e.indices, e.surface, e.direction, e.cosine);
+                sum += r.totalInternalReflection ? 1.0 : r.reflectance();
+            }
+        }
+    }
+    benchmark::DoNotOptimize(sum);
+    state.counters["ns_per_event"] =
+        benchmark::Counter(static_cast<double>(events.size()) * 1e-9, benchmark::Counter::kIsIterationInvariantRate |
+                                                                         benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_Reflectance)->ArgNames({"table", "stack"})->ArgsProduct({{0, 1}, {0, 1}});
 
 }  // namespace
 

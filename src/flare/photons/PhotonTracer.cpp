@@ -133,7 +133,10 @@ PhotonTracer::PhotonTracer(const LensSystem& lens, const InteriorMaterials& mate
 PhotonTracer::~PhotonTracer() = default;
 
 void PhotonTracer::tabulateReflectance() {
-    if (!reflectance_) reflectance_ = std::make_shared<const SpectralReflectance>(*lens_);
+    if (reflectance_) return;
+    auto table = std::make_shared<const SpectralReflectance>(*lens_);
+    // A lens without multilayer coatings keeps the exact response everywhere: no table to consult.
+    if (table->tabulatedInterfaces() > 0) reflectance_ = std::move(table);
 }
 
 std::unique_ptr<PhotonTracer::Scratch> PhotonTracer::makeScratch() const {

@@ -166,9 +166,10 @@ public:
     double clearTransmittance(const std::vector<glm::dvec3>& points, const std::vector<int>& surfaces,
                               double wavelengthNm, Rng& rng, Scratch& scratch) const;
 
-    // From here on, the reflect-or-refract choice takes its probability from a SpectralReflectance
-    // table of the lens instead of the exact coating response (several times cheaper; the table's
-    // error, at most 4e-4 relative, is measured in its tests). Renders use it; off by default.
+    // From here on, the reflect-or-refract choice at multilayer-coated interfaces takes its
+    // probability from a SpectralReflectance table instead of the exact thin-film response
+    // (faster there; within 4e-4 relative, measured in its tests). Renders use it; off by default.
+    // A lens without multilayer coatings keeps the exact response (tabulatesReflectance false).
     void tabulateReflectance();
     bool tabulatesReflectance() const { return reflectance_ != nullptr; }
 

@@ -57,6 +57,9 @@ LensSystem lensWithCoating(const std::string& coatingLine) {
                                            "coated.lens"));
 }
 
+// A four-layer broadband anti-reflection stack (layer index:thickness nm from the air side).
+constexpr const char* kStack = "coating bbar stack 1.38:99.6 2.10:114.5 1.62:84.9 2.10:30.0\ndefault_coating bbar";
+
 // The stated bound. Measured worst cases (printed; 40 000 random interfaces, wavelengths and
 // cosines each): shipped lenses 6e-6 absolute and 1e-4 relative, the four-layer stack 1.8e-5 and
 // 4e-4, uncoated glass 4e-7 and 5e-6. Splines need the tables' smoothness: linear interpolation
@@ -67,7 +70,7 @@ constexpr double kMaxAbsoluteError = 2e-5, kMaxRelativeError = 1e-3;
 TEST(SpectralReflectance, MatchesTheExactResponseOnEveryShippedLens) {
     for (const char* file : test::kShippedLenses) {
         const LensSystem lens = test::loadLens(file);
-        const SpectralReflectance table(lens);
+        const SpectralReflectance table(lens, SpectralReflectance::Tabulate::All);
         const ErrorSeen e = measure(lens, table, 40000, 3);
         std::printf("%s: max error %.2g absolute, %.2g relative (%ld samples)\n", file, e.absolute, e.relative, e.samples);
         EXPECT_GT(e.samples, 30000);
@@ -77,10 +80,10 @@ TEST(SpectralReflectance, MatchesTheExactResponseOnEveryShippedLens) {
 }
 
 TEST(SpectralReflectance, MatchesAMultilayerStackUncoatedGlassAndAnIdealCoating) {
-    for (const char* coating : {"coating bbar stack 1.38:99.6 2.10:114.5 1.62:84.9 2.10:30.0\ndefault_coating bbar",
+    for (const char* coating : {kStack,
                                 "default_coating none", "coating flat ideal 400:0.02 550:0.004 700:0.012\ndefault_coating flat"}) {
         const LensSystem lens = lensWithCoating(coating);
-        const SpectralReflectance table(lens);
+        const SpectralReflectance table(lens, SpectralReflectance::Tabulate::All);
         const ErrorSeen e = measure(lens, table, 40000, 5);
         std::printf("%s: max error %.2g absolute, %.2g relative\n", coating, e.absolute, e.relative);
         EXPECT_LT(e.absolute, kMaxAbsoluteError) << coating;
@@ -91,7 +94,7 @@ TEST(SpectralReflectance, MatchesAMultilayerStackUncoatedGlassAndAnIdealCoating)
 // Near the critical angle and outside the tabulated wavelengths the answer is the exact one.
 TEST(SpectralReflectance, ExactNearTheCriticalAngleAndOutsideTheTable) {
     const LensSystem lens = test::loadLens("lenses/double-gauss-50mm.lens");
-    const SpectralReflectance table(lens, 400.0, 700.0);
+    const SpectralReflectance table(lens, SpectralReflectance::Tabulate::All, 400.0, 700.0);
     int checked = 0;
     for (int k = 0; k < lens.surfaceCount(); ++k) {
         if (lens.surface(k).isStop) continue;
@@ -121,15 +124,27 @@ TEST(SpectralReflectance, ExactNearTheCriticalAngleAndOutsideTheTable) {
 // The bound is not vacuous: a table 8× coarser in cos θ breaks it on uncoated glass.
 TEST(SpectralReflectance, ACoarseTableFailsTheBound) {
     const LensSystem lens = lensWithCoating("default_coating none");
-    const SpectralReflectance coarse(lens, 360.0, 830.0, 40.0, 32);
+    const SpectralReflectance coarse(lens, SpectralReflectance::Tabulate::All, 360.0, 830.0, 40.0, 32);
     const ErrorSeen e = measure(lens, coarse, 40000, 7);
     EXPECT_GT(e.relative, kMaxRelativeError);
 }
 
-// Photons through the double Gauss with the table and with the exact response: each fate's count
-// agrees within binomial statistics (a table off by 10 % in reflectance would not).
+// Only multilayer-coated interfaces get a table by default; a lens without any keeps none.
+TEST(SpectralReflectance, TablesOnlyMultilayerInterfaces) {
+    const LensSystem single = test::loadLens("lenses/double-gauss-50mm.lens");
+    EXPECT_EQ(SpectralReflectance(single).tabulatedInterfaces(), 0);
+    PhotonTracer tracer(single, InteriorMaterials{});
+    tracer.tabulateReflectance();
+    EXPECT_FALSE(tracer.tabulatesReflectance());
+    const LensSystem stack = lensWithCoating(kStack);
+    EXPECT_EQ(SpectralReflectance(stack).tabulatedInterfaces(), 2 * 4);  // four air-glass surfaces, both ways
+}
+
+// Photons through a lens with a four-layer stack, with the table and with the exact response:
+// each fate's count agrees within binomial statistics (a table off by 10 % in reflectance would
+// not).
 TEST(SpectralReflectance, PhotonFatesAgreeWithTheExactResponse) {
-    const LensSystem lens = test::loadLens("lenses/double-gauss-50mm.lens");
+    const LensSystem lens = lensWithCoating(kStack);
     InteriorMaterials materials;
     PhotonTracer exact(lens, materials), tabled(lens, materials);
     tabled.tabulateReflectance();
