@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <fstream>
 #include <iterator>
+#include <span>
 #include <string>
 #include <random>
 #include <vector>
@@ -181,6 +182,31 @@ void BM_PacketTracerPerTarget(benchmark::State& state) {
     hwy::SetSupportedTargetsForTest(0);
 }
 BENCHMARK(BM_PacketTracerPerTarget)->DenseRange(0, 4);
+
+// PacketTracer on 1 and 2 threads (TBB, wall-clock rate): the direct path, geometry only, 2^18
+// parallel rays in chunks of 4096 (each chunk one trace call, as the mesher makes them).
+void BM_PacketTracerThreads(benchmark::State& state) {
+    const int threads = static_cast<int>(state.range(0));
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    const LensSystem& lens = doubleGauss();
+    const SpectralIndices idx = lens.indicesAt(550.0);
+    const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(3.0, 4.0));
+    const std::vector<glm::dvec2> points = makePupilPoints(grid, lens.surface(0).semiApertureMm, 1 << 18);
+    const PacketTracer packet(BundleTracer(lens, idx, {}, false));
+    std::vector<BundleLanding> landings(points.size());
+    constexpr size_t kChunk = 4096;
+    for (auto _ : state) {
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, points.size() / kChunk, 1), [&](const tbb::blocked_range<size_t>& r) {
+            for (size_t c = r.begin(); c != r.end(); ++c)
+                packet.trace(grid, std::span<const glm::dvec2>(points.data() + c * kChunk, kChunk),
+                             std::span<BundleLanding>(landings.data() + c * kChunk, kChunk));
+        });
+        benchmark::ClobberMemory();
+    }
+    state.counters["rays/s"] =
+        benchmark::Counter(static_cast<double>(state.iterations()) * static_cast<double>(points.size()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_PacketTracerThreads)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
 
 // The photon tracer's reflectance (one interface event): the exact coating response against the
 // SpectralReflectance table, on the double Gauss with its single MgF2 layer (coating 0) and with
