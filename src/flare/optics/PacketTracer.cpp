@@ -92,6 +92,51 @@ HWY_INLINE V LookupTable(D d, const detail::PacketStep& s, hn::Mask<D> tabled, V
     return hn::Add(hn::Add(hn::Add(a, b), e), f);
 }
 
+// intersect()'s Newton iteration on an asphere, F(t) = z(t) − sag(r²(t)), for the lanes of
+// `alive`, in its order of operations: from the conic hit where there is one (else the vertex
+// plane), at most kMaxNewtonIterations steps, each lane stopping where intersect() returns.
+// Lanes that diverge or converge behind the origin are failed (NewtonDiverged, Missed); returns
+// the hits' t (vertex-local origin: x and y unshifted, z − vertex).
+template <class V, class M, class Fail>
+HWY_INLINE V NewtonAsphere(const detail::PacketStep& s, M alive, M conicHit, V ox, V oy, V oz0, V dx, V dy, V dz, V t,
+                           Fail& fail) {
+    const hn::DFromV<V> d;
+    const V zero = hn::Zero(d), one = hn::Set(d, 1.0), two = hn::Set(d, 2.0);
+    const V c = hn::Set(d, s.curvaturePerMm), kc2 = hn::Set(d, s.conicFactor * s.curvaturePerMm * s.curvaturePerMm);
+    const V plane = hn::IfThenElse(hn::Ne(dz, zero), hn::Div(hn::Neg(oz0), dz), zero);
+    t = hn::IfThenElse(conicHit, t, plane);
+    M running = alive, diverged = hn::FirstN(d, 0);
+    for (int iteration = 0; iteration < kMaxNewtonIterations && !hn::AllFalse(d, running); ++iteration) {
+        const V px = hn::Add(ox, hn::Mul(t, dx)), py = hn::Add(oy, hn::Mul(t, dy)), pz = hn::Add(oz0, hn::Mul(t, dz));
+        const V r2 = hn::Add(hn::Mul(px, px), hn::Mul(py, py));
+        const V q = hn::Sub(one, hn::Mul(kc2, r2));
+        const M outside = hn::And(running, hn::Lt(q, zero));
+        diverged = hn::Or(diverged, outside);
+        running = hn::AndNot(outside, running);
+        const V root = hn::Sqrt(q);
+        V sag = hn::Div(hn::Mul(c, r2), hn::Add(one, root));
+        V slope = hn::IfThenElse(hn::Gt(q, zero), hn::Div(hn::Set(d, 0.5 * s.curvaturePerMm), root), zero);
+        V power = r2;
+        for (int m = 0; m < kAsphereTerms; ++m) {
+            slope = hn::Add(slope, hn::Mul(hn::Set(d, s.slopeCoefficient[m]), power));
+            power = hn::Mul(power, r2);
+            sag = hn::Add(sag, hn::Mul(hn::Set(d, s.asphere[m]), power));
+        }
+        const V f = hn::Sub(pz, sag);
+        const V df = hn::Sub(dz, hn::Mul(hn::Mul(two, slope), hn::Add(hn::Mul(px, dx), hn::Mul(py, dy))));
+        const M flat = hn::And(running, hn::Or(hn::Eq(df, zero), hn::Not(hn::IsFinite(df))));
+        diverged = hn::Or(diverged, flat);
+        running = hn::AndNot(flat, running);
+        const V step = hn::Div(f, df);
+        t = hn::IfThenElse(running, hn::Sub(t, step), t);
+        const M converged = hn::And(running, hn::Lt(hn::Abs(step), hn::Mul(hn::Set(d, 1e-12), hn::Add(one, hn::Abs(t)))));
+        running = hn::AndNot(converged, running);
+    }
+    fail(hn::Or(diverged, running), TraceStatus::NewtonDiverged);  // running: out of iterations
+    fail(hn::Le(t, hn::Set(d, 1e-9)), TraceStatus::Missed);       // (intersect()'s tMin)
+    return t;
+}
+
 // One step for `count` rays (a multiple of the vector length): the operations of
 // BundleTracer::applyStep in the same order, with a ray's failure recorded in its fate. Rays
 // whose step needs the scalar code are left unchanged and marked deferred, factors left to the
@@ -188,8 +233,13 @@ detail::PacketStepResult AdvancePacket(const detail::PacketStep& s, int step, de
             const V tMin = hn::Set(d, 1e-9), ck = hn::Set(d, s.curvaturePerMm * s.conicFactor);
             const M ok0 = hn::And(hn::Not(hn::Le(t0, tMin)), hn::Gt(hn::Sub(one, hn::Mul(ck, hn::Add(oz0, hn::Mul(t0, dz)))), zero));
             const M ok1 = hn::And(hn::Not(hn::Le(t1, tMin)), hn::Gt(hn::Sub(one, hn::Mul(ck, hn::Add(oz0, hn::Mul(t1, dz)))), zero));
-            fail(hn::Not(hn::And(roots, hn::Or(ok0, ok1))), TraceStatus::Missed);
-            const V t = hn::IfThenElse(ok0, t0, t1);
+            const M conicHit = hn::And(roots, hn::Or(ok0, ok1));
+            V t = hn::IfThenElse(ok0, t0, t1);
+            if (s.polynomial) {
+                t = NewtonAsphere(s, alive, conicHit, ox, oy, oz0, dx, dy, dz, t, fail);
+            } else {
+                fail(hn::Not(conicHit), TraceStatus::Missed);
+            }
             px = hn::Add(ox, hn::Mul(t, dx));
             py = hn::Add(oy, hn::Mul(t, dy));
             pz = hn::Add(oz, hn::Mul(t, dz));
@@ -242,11 +292,20 @@ detail::PacketStepResult AdvancePacket(const detail::PacketStep& s, int step, de
             ny = hn::Div(hn::Sub(zero, py), radius);
             nz = hn::Div(hn::Sub(hn::Set(d, s.centreZMm), pz), radius);
         } else if (s.normal == detail::PacketStep::Normal::Conic) {
-            // Surface::sagSlope (its polynomial terms, all zero, add +0) and normalAt.
+            // Surface::sagSlope (a conic's polynomial terms, all zero, add +0) and normalAt.
             const V r2 = hn::Add(hn::Mul(px, px), hn::Mul(py, py));
             const V q2 = hn::Sub(one, hn::Mul(hn::Set(d, s.conicFactor * s.curvaturePerMm * s.curvaturePerMm), r2));
             V slope = hn::IfThenElse(hn::Gt(q2, zero), hn::Div(hn::Set(d, 0.5 * s.curvaturePerMm), hn::Sqrt(q2)), zero);
-            slope = hn::Mul(hn::Set(d, -2.0), hn::Add(slope, zero));
+            if (s.polynomial) {
+                V power = r2;
+                for (int m = 0; m < kAsphereTerms; ++m) {
+                    slope = hn::Add(slope, hn::Mul(hn::Set(d, s.slopeCoefficient[m]), power));
+                    power = hn::Mul(power, r2);
+                }
+            } else {
+                slope = hn::Add(slope, zero);
+            }
+            slope = hn::Mul(hn::Set(d, -2.0), slope);
             nx = hn::Mul(slope, px);
             ny = hn::Mul(slope, py);
             Normalize(nx, ny, nz);
@@ -359,9 +418,14 @@ PacketTracer::PacketTracer(const BundleTracer& path) : path_(path) {
             case Kind::Refract:
             case Kind::Reflect: {
                 const Surface& surface = lens.surface(bs.surface);
-                if (surface.hasPolynomial()) {
+                if (surface.hasPolynomial() && bs.kind == Kind::Stop) {
                     s.kind = detail::PacketStep::Kind::Scalar;
                     break;
+                }
+                s.polynomial = surface.hasPolynomial();
+                for (int m = 0; m < kAsphereTerms; ++m) {
+                    s.asphere[m] = surface.asphere[m];
+                    s.slopeCoefficient[m] = (m + 2) * surface.asphere[m];
                 }
                 s.kind = bs.kind == Kind::Stop ? detail::PacketStep::Kind::Stop : detail::PacketStep::Kind::Conic;
                 s.reflect = bs.kind == Kind::Reflect;
@@ -382,9 +446,10 @@ PacketTracer::PacketTracer(const BundleTracer& path) : path_(path) {
                 s.aperture2Mm2 = surface.semiApertureMm * surface.semiApertureMm;
                 s.inverseAperture2PerMm2 = 1.0 / s.aperture2Mm2;
                 s.eta = bs.n1 / bs.n2;
-                s.normal = surface.radiusMm == 0.0   ? detail::PacketStep::Normal::Plane
-                           : surface.conic == 0.0 ? detail::PacketStep::Normal::Sphere
-                                                  : detail::PacketStep::Normal::Conic;
+                s.normal = s.polynomial                ? detail::PacketStep::Normal::Conic
+                           : surface.radiusMm == 0.0   ? detail::PacketStep::Normal::Plane
+                           : surface.conic == 0.0      ? detail::PacketStep::Normal::Sphere
+                                                       : detail::PacketStep::Normal::Conic;
                 const Iris& iris = lens.iris();
                 s.roundIris = iris.blades() == 0;
                 s.irisInner2Mm2 = s.roundIris ? iris.radiusMm() * iris.radiusMm() : iris.apothemMm() * iris.apothemMm();

@@ -6,9 +6,10 @@
 // the last bit on every instruction set; a test checks it lane by lane for each one this
 // processor runs.
 //
-// Spheres, conics and planes are traced in the vector lanes; aspheres, the few rays whose origin
-// is too far from a conic for its quadratic (intersectConicFromAfar) and rays near the blades of
-// a polygonal iris take BundleTracer's scalar step for that event. Fresnel/coating factors from
+// Spheres, conics, planes and aspheres (intersect()'s Newton iteration, each lane stopping where
+// it would) are traced in the vector lanes; the few rays whose origin is too far from a conic for
+// its quadratic (intersectConicFromAfar) and rays near the blades of a polygonal iris take
+// BundleTracer's scalar step for that event. Fresnel/coating factors from
 // InterfaceTables are interpolated in the lanes with the same operations as the tables' own
 // lookup; the exact responses (no tables, or a cosine near total internal reflection) are
 // evaluated one lane at a time.
@@ -34,7 +35,7 @@ struct PacketStep {
         Conic,      // refraction or reflection at a sphere, conic or plane
         Stop,       // the iris plane
         Sensor,     // the sensor plane: end there, reflect, or a wrong exit
-        Scalar,     // BundleTracer's step for every ray (aspheres)
+        Scalar,     // BundleTracer's step for every ray (an aspheric iris plane)
         WrongExit,  // every ray ends here
     };
     Kind kind = Kind::Conic;
@@ -47,6 +48,10 @@ struct PacketStep {
     int surface = 0, direction = 1;  // as BundleTracer's step (for the Fresnel/coating factor)
     double vertexZMm = 0.0, curvaturePerMm = 0.0, conicFactor = 1.0, radiusMm = 0.0;
     double centreZMm = 0.0;       // a sphere's centre of curvature
+    // An asphere (Normal::Conic with polynomial terms): intersect()'s Newton iteration in the
+    // lanes; its A4..A16 and their slope coefficients (i + 2) A_{2i+4}.
+    bool polynomial = false;
+    double asphere[kAsphereTerms] = {}, slopeCoefficient[kAsphereTerms] = {};
     double aperture2Mm2 = 0.0, inverseAperture2PerMm2 = 0.0;  // the clear aperture's semi-diameter squared
     double eta = 1.0;             // n1 / n2
     double irisInner2Mm2 = 0.0;   // Stop: squared radius within which every point passes
