@@ -36,13 +36,20 @@ double sensorMargin(const LensSystem& lens, const glm::dvec2& sensorMm) {
 
 // The event sequence of a path does not depend on the ray (only whether the ray survives each
 // event does), so it is unrolled once here, following tracePath's control flow step by step.
-InterfaceTables::InterfaceTables(const LensSystem& lens, const SpectralIndices& indices, int intervals)
+InterfaceTables::InterfaceTables(const LensSystem& lens, const SpectralIndices& indices, int intervals,
+                                 std::span<const Interface> only)
     : lens_(&lens), indices_(indices), intervals_(std::max(intervals, 1)),
       tables_(static_cast<size_t>(lens.surfaceCount()) * 4) {
     const double h = 1.0 / intervals_;
+    auto wanted = [&](int k, int direction) {
+        return only.empty() || std::any_of(only.begin(), only.end(), [&](const Interface& i) {
+                   return i.surface == k && i.direction == direction;
+               });
+    };
     for (int k = 0; k < lens.surfaceCount(); ++k) {
         if (lens.surface(k).isStop) continue;
         for (int direction : {-1, 1}) {
+            if (!wanted(k, direction)) continue;
             const double n1 = direction > 0 ? indices.n[k] : indices.n[k + 1];
             const double n2 = direction > 0 ? indices.n[k + 1] : indices.n[k];
             // Total internal reflection below cos = √(1 − (n2/n1)²): the response has a
@@ -83,7 +90,7 @@ InterfaceTables::InterfaceTables(const LensSystem& lens, const SpectralIndices& 
 
 double InterfaceTables::lookup(const Table& t, int surface, int direction, bool reflect, double cosThetaI) const {
     const double c = std::clamp(cosThetaI, 0.0, 1.0);
-    if (c >= t.exactFrom && c <= t.exactTo) {
+    if ((c >= t.exactFrom && c <= t.exactTo) || t.value.empty()) {  // (empty: not tabulated)
         const FresnelTerms exact = interfaceResponse(*lens_, indices_, surface, direction, c);
         return reflect ? exact.reflectance() : exact.transmittance();
     }
@@ -198,6 +205,18 @@ void BundleTracer::trace(const PupilGrid& grid, std::span<const glm::dvec2> pupi
             o.surface = lens_->surfaceCount();
         }
     }
+}
+
+std::vector<InterfaceTables::Interface> BundleTracer::interfaces() const {
+    std::vector<InterfaceTables::Interface> out;
+    for (const Step& s : steps_) {
+        if (s.kind != Step::Kind::Refract && s.kind != Step::Kind::Reflect) continue;
+        const bool seen = std::any_of(out.begin(), out.end(), [&](const InterfaceTables::Interface& i) {
+            return i.surface == s.surface && i.direction == s.direction;
+        });
+        if (!seen) out.push_back({s.surface, s.direction});
+    }
+    return out;
 }
 
 BundleTracer BundleTracer::geometryOnly() const {

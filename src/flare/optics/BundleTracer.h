@@ -61,7 +61,14 @@ double sensorMargin(const LensSystem& lens, const glm::dvec2& sensorMm);
 class InterfaceTables {
 public:
     static constexpr int kDefaultIntervals = 1024;
-    InterfaceTables(const LensSystem& lens, const SpectralIndices& indices, int intervals = kDefaultIntervals);
+    // An interface met by a path: a surface and the direction of travel (+1 towards the sensor).
+    struct Interface {
+        int surface = 0, direction = 1;
+    };
+    // With `only` (e.g. BundleTracer::interfaces()), just those interfaces are tabulated (a beam's
+    // one-off tables then cost a path's share of the lens); others fall back to the exact response.
+    InterfaceTables(const LensSystem& lens, const SpectralIndices& indices, int intervals = kDefaultIntervals,
+                    std::span<const Interface> only = {});
     // interfaceResponse(lens, indices, surface, direction, cosThetaI).reflectance() / .transmittance().
     double reflectance(int surface, int direction, double cosThetaI) const;
     double transmittance(int surface, int direction, double cosThetaI) const;
@@ -107,6 +114,8 @@ public:
     void advance(int step, std::span<BundleRay> rays, std::span<StepOutcome> outcomes, bool margins) const;
     // The surface (index; surfaceCount for the sensor) a step meets, for reports.
     int stepSurface(int step) const { return steps_[step].surface; }
+    // The interfaces the path refracts or reflects at (each once), for InterfaceTables' `only`.
+    std::vector<InterfaceTables::Interface> interfaces() const;
 
     // The same path without Fresnel/coating factors: the same geometry, cheaper, for searches that
     // need only which rays survive.

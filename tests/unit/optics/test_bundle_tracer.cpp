@@ -163,5 +163,42 @@ TEST(BundleTracer, TablesChangeOnlyTheThroughput) {
     EXPECT_GT(ok, 100);
 }
 
+// Tables of a path's own interfaces only (what a beam builds): the path traces with them to the
+// same bits as with the whole lens's tables, and an interface left out falls back to the exact
+// response.
+TEST(BundleTracer, TablesOfThePathsInterfacesOnlyGiveTheSameBits) {
+    const LensSystem lens = test::loadLens("lenses/double-gauss-50mm.lens");
+    const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(6.0, -4.0));
+    const SpectralIndices indices = lens.indicesAt(505.0);
+    const InterfaceTables all(lens, indices, 64);
+    const std::vector<glm::dvec2> points = test::pupilLattice(grid, 48);
+    int ok = 0;
+    for (const GhostPath& ghost : {GhostPath{{9, 2}}, GhostPath{{11, 10}}, GhostPath{}}) {
+        const std::vector<InterfaceTables::Interface> interfaces = BundleTracer(lens, indices, ghost.reflections).interfaces();
+        // The direct path meets every surface once forwards; a ghost meets the surfaces between its
+        // reflections both ways.
+        const int refracting = lens.surfaceCount() - 1;  // all but the stop
+        if (ghost.reflections.empty()) EXPECT_EQ(static_cast<int>(interfaces.size()), refracting);
+        else EXPECT_GT(static_cast<int>(interfaces.size()), refracting);
+        const InterfaceTables own(lens, indices, 64, interfaces);
+        const BundleTracer withAll(lens, indices, ghost.reflections, true, &all);
+        const BundleTracer withOwn(lens, indices, ghost.reflections, true, &own);
+        std::vector<BundleLanding> a(points.size()), b(points.size());
+        withAll.trace(grid, points, a);
+        withOwn.trace(grid, points, b);
+        for (size_t i = 0; i < points.size(); ++i) {
+            ASSERT_EQ(a[i].status, b[i].status);
+            ASSERT_EQ(a[i].throughput, b[i].throughput) << ghost.label();
+            ok += a[i].ok();
+        }
+    }
+    EXPECT_GT(ok, 100);
+    // Surface 1 backwards is on no path above but the ghosts': in a table of the direct path's
+    // interfaces it is left out and answered exactly.
+    const InterfaceTables direct(lens, indices, 64, BundleTracer(lens, indices, {}).interfaces());
+    for (double c : {0.2, 0.7, 0.95})
+        EXPECT_EQ(direct.reflectance(1, -1, c), interfaceResponse(lens, indices, 1, -1, c).reflectance());
+}
+
 }  // namespace
 }  // namespace flare
