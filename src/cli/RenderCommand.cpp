@@ -41,6 +41,7 @@ struct RenderCommandOptions {
     double timeS = 0.0;
     double targetError = 0.02;  // 0: none
     int maxBounces = -2;     // −2: the scene's
+    int beamsPerPass = 0;    // 0: the scene's
     long long seed = -1;     // −1: the scene's
     int threads = 0;
     double checkpointIntervalS = 60.0;
@@ -212,6 +213,7 @@ int run(const RenderCommandOptions& o) {
                                            : RenderOptions::Mode::Guided;
     if (o.seed >= 0) overrides.seed = static_cast<std::uint64_t>(o.seed);
     if (o.maxBounces >= -1) overrides.maxBounces = o.maxBounces;
+    if (o.beamsPerPass > 0) overrides.beamsPerPass = o.beamsPerPass;
     overrides.perGhostLayers = o.layers;
     overrides.higherOrder = o.higherOrder == "on"    ? RenderOptions::HigherOrder::On
                             : o.higherOrder == "off" ? RenderOptions::HigherOrder::Off
@@ -342,6 +344,10 @@ void addRenderCommand(CLI::App& app) {
         ->check(CLI::Range(0.0, 1.0));
     render->add_option("--max-bounces", o->maxBounces, "stop photons after K reflections (-1: unbounded)")
         ->check(CLI::Range(-1, 1000));
+    render->add_option("--beams-per-pass", o->beamsPerPass,
+                       "beams per pass and directional light (default: the scene's render.beams_per_pass, 1024); "
+                       "larger passes converge faster but give the error estimate fewer passes")
+        ->check(CLI::Range(16, 65536));
     render->add_option("--seed", o->seed, "random seed (default: the scene's)")->check(CLI::NonNegativeNumber);
     render->add_option("--threads", o->threads, "worker threads (default: all cores)")->check(CLI::PositiveNumber);
     render->add_flag("--layers", o->layers,

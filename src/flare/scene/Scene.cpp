@@ -95,7 +95,7 @@ void parseSensor(const Checker& c, const Node& node, Scene& scene) {
 void parseRender(const Checker& c, const Node& node, RenderSettings& r) {
     c.object(node, "render",
              {"preview_wavelengths", "ghost_order", "prune_keep_share", "prune_relative_threshold", "photons", "seed",
-              "max_bounces", "sensor_ghosts", "diffraction", "diffraction_wavelengths"});
+              "max_bounces", "sensor_ghosts", "diffraction", "diffraction_wavelengths", "beams_per_pass"});
     if (const Member* m = Checker::find(node, "preview_wavelengths"))
         r.previewWavelengths = static_cast<int>(c.integerIn(m->value, "render.preview_wavelengths", 1, 64));
     if (const Member* m = Checker::find(node, "ghost_order")) {
@@ -126,6 +126,8 @@ void parseRender(const Checker& c, const Node& node, RenderSettings& r) {
     if (const Member* m = Checker::find(node, "diffraction")) r.diffraction = c.boolean(m->value, "render.diffraction");
     if (const Member* m = Checker::find(node, "diffraction_wavelengths"))
         r.diffractionWavelengths = static_cast<int>(c.integerIn(m->value, "render.diffraction_wavelengths", 1, 256));
+    if (const Member* m = Checker::find(node, "beams_per_pass"))
+        r.beamsPerPass = static_cast<int>(c.integerIn(m->value, "render.beams_per_pass", 16, 65536));
 }
 
 std::string shippedLensNames() {

@@ -39,6 +39,7 @@ struct RenderSettings {
     bool includeSensorGhosts = true;      // paths that reflect off the sensor
     bool diffraction = true;              // the starburst: the direct image convolved with the PSF
     int diffractionWavelengths = 32;      // spectral quadrature of the diffraction PSF
+    int beamsPerPass = 1024;              // per directional light (RenderOptions::beamsPerPass)
 };
 
 // Scattering (docs/scene-format.md, "scattering"). Surfaces are numbered from 1 in file order,

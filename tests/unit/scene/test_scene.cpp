@@ -18,6 +18,7 @@
 #include "flare/optics/RealRays.h"
 #include "flare/optics/SequentialTracer.h"
 #include "flare/scene/Scene.h"
+#include "flare/scene/SceneRender.h"
 
 namespace flare {
 namespace {
@@ -367,6 +368,19 @@ TEST(SceneErrors, OutOfRange) {
                 {"render.prune_relative_threshold: must lie in [0, 1)"});
     expectError(scene(kSun, "  \"render\": { \"max_bounces\": -2 }"), 6, {"render.max_bounces: must be an integer in [-1, 10000]"});
     expectError(scene(kSun, "  \"render\": { \"seed\": -1 }"), 6, {"render.seed"});
+    expectError(scene(kSun, "  \"render\": { \"beams_per_pass\": 8 }"), 6,
+                {"render.beams_per_pass: must be an integer in [16, 65536]"});
+}
+
+TEST(Scene, BeamsPerPassReachesTheRenderOptions) {
+    const Scene s = parseSceneText(scene(kSun, "  \"render\": { \"beams_per_pass\": 4096 }"), "good.json", "");
+    EXPECT_EQ(s.render.beamsPerPass, 4096);
+    const LensSystem lens = buildSceneLens(s);
+    EXPECT_EQ(sceneRenderOptions(s, lens, {}).beamsPerPass, 4096);
+    SceneRenderOverrides overrides;
+    overrides.beamsPerPass = 512;
+    EXPECT_EQ(sceneRenderOptions(s, lens, overrides).beamsPerPass, 512);
+    EXPECT_EQ(sceneRenderOptions(parseSceneText(scene(kSun, ""), "default.json", ""), lens, {}).beamsPerPass, 1024);
 }
 
 TEST(SceneErrors, GhostOrderIsTwoOrFour) {
