@@ -93,12 +93,14 @@ double SpectralReflectance::reflectance(int surface, int direction, double wavel
     const int i = std::min(static_cast<int>(y), cosIntervals_ - 1);
     const double u = y - i;
     // Catmull-Rom in λ and in cos θ (in the last interval of cos θ, the parabola through its
-    // last three nodes; the first is in the grazing zone).
+    // last three nodes; in the first, which only a coarse table reaches outside the grazing zone,
+    // a line).
     auto spline = [](double t, double p0, double p1, double p2, double p3) {
         return p1 + 0.5 * t * (p2 - p0 + t * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3 + t * (3.0 * (p1 - p2) + p3 - p0)));
     };
     auto along = [&](int node) {
         const float* v = t.values.data() + static_cast<size_t>(node) * (cosIntervals_ + 1);
+        if (i == 0) return v[0] + u * (v[1] - v[0]);
         if (i == cosIntervals_ - 1)
             return v[i] + u * (v[i + 1] - v[i]) + 0.5 * u * (u - 1.0) * (v[i + 1] - 2.0 * v[i] + v[i - 1]);
         return spline(u, v[i - 1], v[i], v[i + 1], v[i + 2]);
