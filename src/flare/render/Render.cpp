@@ -674,7 +674,7 @@ void Renderer::traceBeam(BeamJob& job) const {
     // Coating tables for this one wavelength: coarse ones build in a fraction of a millisecond and
     // agree with the exact response to a few 1e-4 at worst (test_bundle_tracer.cpp), far below the
     // mesh's own error.
-    // Only the path's own interfaces: the whole lens's would cost a path's share several times.
+    // Only the path's own interfaces: building the whole lens's costs several times as much.
     const std::vector<InterfaceTables::Interface> interfaces =
         BundleTracer(lens, indices, estimate.path.reflections, false).interfaces();
     const InterfaceTables tables(lens, indices, kBeamTableIntervals, interfaces);

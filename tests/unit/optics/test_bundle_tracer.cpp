@@ -193,8 +193,8 @@ TEST(BundleTracer, TablesOfThePathsInterfacesOnlyGiveTheSameBits) {
         }
     }
     EXPECT_GT(ok, 100);
-    // Surface 1 backwards is on no path above but the ghosts': in a table of the direct path's
-    // interfaces it is left out and answered exactly.
+    // The direct path meets no interface backwards: a table of its interfaces leaves surface 1
+    // backwards out, and answers it exactly.
     const InterfaceTables direct(lens, indices, 64, BundleTracer(lens, indices, {}).interfaces());
     for (double c : {0.2, 0.7, 0.95})
         EXPECT_EQ(direct.reflectance(1, -1, c), interfaceResponse(lens, indices, 1, -1, c).reflectance());
