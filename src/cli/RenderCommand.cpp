@@ -48,6 +48,7 @@ struct RenderCommandOptions {
     double interiorAlbedo = -1.0;  // < 0: the scene's finishes
     bool layers = false;
     bool noDiffraction = false;
+    bool analogStray = false;
     bool quiet = false;
 };
 
@@ -223,6 +224,7 @@ int run(const RenderCommandOptions& o) {
                                                  : FilmSettings::Kernel::Fixed;
     overrides.radiusPx = o.radiusPx;
     overrides.smoothNeighbours = o.smoothNeighbours;
+    overrides.strayLightSampling = !o.analogStray;
     if (o.interiorAlbedo >= 0.0) overrides.interiorAlbedo = o.interiorAlbedo;
     const RenderOptions options = sceneRenderOptions(scene, lens, overrides);
 
@@ -355,6 +357,9 @@ void addRenderCommand(CLI::App& app) {
                      "(scatter_housing, scatter_dust, scatter_grease, scatter_bulk)");
     render->add_flag("--no-diffraction", o->noDiffraction,
                      "leave the light's own image geometric: no starburst layer (as the scene's render.diffraction: false)");
+    render->add_flag("--analog-stray", o->analogStray,
+                     "trace the unguided photons' stray light analog (absorption by roulette, no connections to the "
+                     "sensor), as the naive mode does: slower to converge, for comparison");
     render->add_option("--png", o->png, "also write a tone-mapped PNG");
     render->add_option("--report", o->report, "write a JSON report (per-ghost power with standard errors, layers, energy)");
     render->add_option("--checkpoint", o->checkpoint,

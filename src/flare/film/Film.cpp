@@ -1,6 +1,7 @@
 #include "flare/film/Film.h"
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <cstring>
 #include <istream>
@@ -18,7 +19,7 @@ namespace {
 constexpr int kTilePx = 32;
 constexpr int kCountBlockPx = 8;
 constexpr double kMm2PerM2 = 1e6;
-constexpr std::uint64_t kFilmMagic = 0x33464c4946524c46ull;  // "FLRFILF3"
+constexpr std::uint64_t kFilmMagic = 0x34464c4946524c46ull;  // "FLRFILF4"
 
 template <class T>
 void writeRaw(std::ostream& out, const T& value) {
@@ -75,6 +76,23 @@ struct Film::Tiles {
     }
 };
 
+// Second differences of the running pass's wide kernels over the image padded by `pad` px on every
+// side (the parts of a kernel off the image still shape the sums on it), dense, XYZ. Each band
+// keeps the box of the entries it wrote, so endPass integrates only that box.
+struct Film::WideSplats {
+    int pad, width, height;  // padded size
+    std::vector<double> deltas;
+    struct Box {
+        int x0 = INT32_MAX, y0 = INT32_MAX, x1 = -1, y1 = -1;  // inclusive, padded coordinates
+    };
+    std::vector<Box> boxes;  // per band
+
+    WideSplats(int imageWidth, int imageHeight, int padPx, int bands)
+        : pad(padPx), width(imageWidth + 2 * padPx), height(imageHeight + 2 * padPx),
+          deltas(static_cast<size_t>(width) * height * 3, 0.0), boxes(bands) {}
+    double* at(int x, int y) { return &deltas[(static_cast<size_t>(y) * width + x) * 3]; }
+};
+
 // One variance group: the current pass's image and the running sums over passes (RGB).
 struct Film::Group {
     std::unique_ptr<Tiles> pass, sumPasses, sumSquares;
@@ -105,13 +123,15 @@ void Film::allocateCounts() {
     countH_ = (settings_.heightPx + kCountBlockPx - 1) / kCountBlockPx;
     counts_.assign(layers_.size(), std::vector<std::uint32_t>(static_cast<size_t>(countW_) * countH_, 0));
     pendingCounts_ = counts_;
+    powers_.assign(layers_.size(), std::vector<double>(static_cast<size_t>(countW_) * countH_, 0.0));
+    pendingPowers_ = powers_;
 }
 
-void Film::setLayerKernel(int layer, FilmSettings::Kernel kernel, int neighbours, double maxRadiusPx) {
+void Film::setLayerKernel(int layer, FilmSettings::Kernel kernel, int neighbours, double maxRadiusPx, bool byPower) {
     if (passes_ > 0) throw std::logic_error("Film::setLayerKernel after the first pass");
     if (layer < 0 || layer >= layerCount()) throw std::invalid_argument("Film::setLayerKernel: no layer " + std::to_string(layer));
     if (neighbours < 1 || !(maxRadiusPx >= 1.0)) throw std::invalid_argument("Film::setLayerKernel: invalid kernel settings");
-    layerKernels_[layer] = {kernel, neighbours, maxRadiusPx};
+    layerKernels_[layer] = {kernel, neighbours, maxRadiusPx, byPower && kernel == FilmSettings::Kernel::Adaptive};
     if (kernel == FilmSettings::Kernel::Adaptive) allocateCounts();
 }
 
@@ -136,7 +156,7 @@ glm::dvec2 Film::toPixel(const glm::dvec2& sensorMm) const {
     return {(0.5 * settings_.widthMm - sensorMm.x) / pixelMm_, (0.5 * settings_.heightMm + sensorMm.y) / pixelMm_};
 }
 
-double Film::radiusPx(int layer, const glm::dvec2& sensorMm) const {
+double Film::radiusPx(int layer, const glm::dvec2& sensorMm, double power) const {
     const LayerKernel& k = layerKernels_[layer];
     switch (k.kernel) {
         case FilmSettings::Kernel::Fixed: return settings_.radiusPx;
@@ -146,14 +166,17 @@ double Film::radiusPx(int layer, const glm::dvec2& sensorMm) const {
             const glm::dvec2 pixel = toPixel(sensorMm);
             const int bx = std::clamp(static_cast<int>(pixel.x) / kCountBlockPx, 0, countW_ - 1);
             const int by = std::clamp(static_cast<int>(pixel.y) / kCountBlockPx, 0, countH_ - 1);
-            const double count = counts_[layer][static_cast<size_t>(by) * countW_ + bx];
-            if (count == 0.0) return k.maxRadiusPx;
-            // k photons expected within π r² at the block's density (photons per px² of the part
-            // of the block that lies on the image: blocks at the right and bottom may be cut).
+            const size_t block = static_cast<size_t>(by) * countW_ + bx;
+            // (k photons, or k times this photon's power, expected within π r² at the block's
+            // density per px² of the part of the block that lies on the image: blocks at the right
+            // and bottom may be cut.)
+            const double amount = k.byPower ? powers_[layer][block] : counts_[layer][block];
+            if (!(amount > 0.0)) return k.maxRadiusPx;
             const int blockW = std::min(kCountBlockPx, settings_.widthPx - bx * kCountBlockPx);
             const int blockH = std::min(kCountBlockPx, settings_.heightPx - by * kCountBlockPx);
-            const double density = count / (blockW * blockH);
-            return std::clamp(std::sqrt(k.neighbours / (std::numbers::pi * density)), 1.0, k.maxRadiusPx);
+            const double density = amount / (blockW * blockH);
+            const double held = k.byPower ? k.neighbours * std::max(power, 0.0) : k.neighbours;
+            return std::clamp(std::sqrt(held / (std::numbers::pi * density)), 1.0, k.maxRadiusPx);
         }
     }
     return settings_.radiusPx;
@@ -222,12 +245,109 @@ void Film::splatRows(int layer, const glm::dvec2& sensorMm, const glm::dvec3& xy
     if (!(pixel.x > -reach && pixel.y > -reach && pixel.x < settings_.widthPx + reach &&
           pixel.y < settings_.heightPx + reach))
         return;
-    const double radius = radiusPx(layer, sensorMm);
-    addKernel(layer, inTotal, pixel, radius, xyzPowerW, rowBegin, rowEnd);
+    const double radius = radiusPx(layer, sensorMm, kernelPower(xyzPowerW));
+    if (radius >= kWideKernelPx && layerKernels_[layer].kernel == FilmSettings::Kernel::Adaptive)
+        addWideKernel(layer, inTotal, static_cast<int>(std::floor(pixel.x)), static_cast<int>(std::floor(pixel.y)),
+                      static_cast<int>(std::lround(radius)), xyzPowerW, rowBegin, rowEnd);
+    else
+        addKernel(layer, inTotal, pixel, radius, xyzPowerW, rowBegin, rowEnd);
     if (count && layerKernels_[layer].kernel == FilmSettings::Kernel::Adaptive) {
         const int bx = static_cast<int>(pixel.x) / kCountBlockPx, by = static_cast<int>(pixel.y) / kCountBlockPx;
-        if (pixel.x >= 0 && pixel.y >= 0 && bx < countW_ && by < countH_)
+        if (pixel.x >= 0 && pixel.y >= 0 && bx < countW_ && by < countH_) {
             ++pendingCounts_[layer][static_cast<size_t>(by) * countW_ + bx];
+            pendingPowers_[layer][static_cast<size_t>(by) * countW_ + bx] += kernelPower(xyzPowerW);
+        }
+    }
+}
+
+void Film::addWideKernel(int layer, bool inTotal, int cx, int cy, int m, const glm::dvec3& value, int rowBegin,
+                         int rowEnd) {
+    const size_t index = static_cast<size_t>(layer) * 2 + (inTotal ? 1 : 0);
+    WideSplats* wide = nullptr;
+    {
+        std::lock_guard<std::mutex> lock(*wideMutex_);
+        if (wide_.empty()) wide_.resize(layers_.size() * 2);
+        if (!wide_[index]) {
+            // Room for the widest kernel about a photon up to one radius off the image (farther
+            // ones are not splatted) on every side.
+            const int pad = static_cast<int>(std::ceil(layerKernels_[layer].maxRadiusPx)) * 2 + 4;
+            wide_[index] = std::make_unique<WideSplats>(settings_.widthPx, settings_.heightPx, pad, bandCount());
+        }
+        wide = wide_[index].get();
+    }
+    // The first band also owns the rows above the image, the last those below.
+    const int lo = rowBegin <= 0 ? INT_MIN : rowBegin;
+    const int hi = rowEnd >= settings_.heightPx ? INT_MAX : rowEnd;
+    const int band = std::clamp(rowBegin / kBandRows, 0, bandCount() - 1);
+    WideSplats::Box& box = wide->boxes[band];
+    const double weights[3] = {1.0, -2.0, 1.0};
+    const glm::dvec3 scaled = value / (static_cast<double>(m) * m * m * m);
+    for (int j = 0; j < 3; ++j) {
+        const int y = cy - m + 1 + j * m;  // image row
+        if (y < lo || y >= hi) continue;
+        const int py = std::clamp(y + wide->pad, 0, wide->height - 1);
+        for (int i = 0; i < 3; ++i) {
+            const int px = std::clamp(cx - m + 1 + i * m + wide->pad, 0, wide->width - 1);
+            double* d = wide->at(px, py);
+            const double w = weights[i] * weights[j];
+            for (int c = 0; c < 3; ++c) d[c] += w * scaled[c];
+            box.x0 = std::min(box.x0, px), box.x1 = std::max(box.x1, px);
+            box.y0 = std::min(box.y0, py), box.y1 = std::max(box.y1, py);
+        }
+    }
+}
+
+void Film::integrateWideSplats() {
+    for (size_t index = 0; index < wide_.size(); ++index) {
+        WideSplats* wide = wide_[index].get();
+        if (!wide) continue;
+        WideSplats::Box box;
+        for (const WideSplats::Box& b : wide->boxes) {
+            box.x0 = std::min(box.x0, b.x0), box.x1 = std::max(box.x1, b.x1);
+            box.y0 = std::min(box.y0, b.y0), box.y1 = std::max(box.y1, b.y1);
+        }
+        std::fill(wide->boxes.begin(), wide->boxes.end(), WideSplats::Box{});
+        if (box.x1 < 0) continue;
+        // Two running sums along each axis turn the second differences into the tents; every tent
+        // ends inside the box (its last difference lies on the box's edge at the latest).
+        for (int y = box.y0; y <= box.y1; ++y) {
+            double first[3] = {0, 0, 0}, second[3] = {0, 0, 0};
+            for (int x = box.x0; x <= box.x1; ++x) {
+                double* d = wide->at(x, y);
+                for (int c = 0; c < 3; ++c) first[c] += d[c], second[c] += first[c], d[c] = second[c];
+            }
+        }
+        for (int x = box.x0; x <= box.x1; ++x) {
+            double first[3] = {0, 0, 0}, second[3] = {0, 0, 0};
+            for (int y = box.y0; y <= box.y1; ++y) {
+                double* d = wide->at(x, y);
+                for (int c = 0; c < 3; ++c) first[c] += d[c], second[c] += first[c], d[c] = second[c];
+            }
+        }
+        // The sums cancel to zero outside the tents only up to rounding: values below 1e-12 of
+        // the largest (and any negative one: every tent and value is non-negative) are that.
+        double largest = 0.0;
+        for (int y = box.y0; y <= box.y1; ++y)
+            for (int x = box.x0; x <= box.x1; ++x)
+                for (int c = 0; c < 3; ++c) largest = std::max(largest, std::abs(wide->at(x, y)[c]));
+        const double floor = 1e-12 * largest;
+        const int layer = static_cast<int>(index / 2);
+        const bool inTotal = index % 2 == 1;
+        const int xBegin = std::max(box.x0, wide->pad), xEnd = std::min(box.x1 + 1, wide->pad + settings_.widthPx);
+        const int yBegin = std::max(box.y0, wide->pad), yEnd = std::min(box.y1 + 1, wide->pad + settings_.heightPx);
+        for (int y = yBegin; y < yEnd; ++y)
+            for (int x = xBegin; x < xEnd; ++x) {
+                double v[3];
+                bool any = false;
+                for (int c = 0; c < 3; ++c) {
+                    const double d = wide->at(x, y)[c];
+                    v[c] = d > floor ? d : 0.0;
+                    any = any || v[c] > 0.0;
+                }
+                if (any) addPixel(layer, inTotal, x - wide->pad, y - wide->pad, v);
+            }
+        for (int y = box.y0; y <= box.y1; ++y)
+            std::fill(wide->at(box.x0, y), wide->at(box.x0, y) + static_cast<size_t>(box.x1 - box.x0 + 1) * 3, 0.0);
     }
 }
 
@@ -254,6 +374,7 @@ void Film::addBand(int band, int layer, const double* rows, bool inTotal) {
 }
 
 void Film::endPass(std::int64_t photons) {
+    integrateWideSplats();
     const double scale = 1.0 / (static_cast<double>(photons) * pixelMm_ * pixelMm_ / kMm2PerM2);
     for (Group& group : groups_) {
         Tiles& pass = *group.pass;
@@ -278,6 +399,7 @@ void Film::endPass(std::int64_t photons) {
         pass.clear();
     }
     counts_ = pendingCounts_;
+    powers_ = pendingPowers_;
     ++passes_;
 }
 
@@ -353,6 +475,7 @@ void Film::save(std::ostream& out) const {
         writeRaw<std::int32_t>(out, static_cast<std::int32_t>(k.kernel));
         writeRaw<std::int32_t>(out, k.neighbours);
         writeRaw<double>(out, k.maxRadiusPx);
+        writeRaw<std::uint8_t>(out, k.byPower ? 1 : 0);
     }
     for (const auto& layer : layers_) layer->save(out);
     for (const Group& group : groups_) {
@@ -360,6 +483,7 @@ void Film::save(std::ostream& out) const {
         group.sumSquares->save(out);
     }
     for (const auto& counts : counts_) out.write(reinterpret_cast<const char*>(counts.data()), sizeof(std::uint32_t) * counts.size());
+    for (const auto& powers : powers_) out.write(reinterpret_cast<const char*>(powers.data()), sizeof(double) * powers.size());
 }
 
 void Film::load(std::istream& in) {
@@ -375,7 +499,9 @@ void Film::load(std::istream& in) {
     for (const LayerKernel& k : layerKernels_) {
         const int kernel = readRaw<std::int32_t>(in), neighbours = readRaw<std::int32_t>(in);
         const double maxRadiusPx = readRaw<double>(in);
-        if (kernel != static_cast<int>(k.kernel) || neighbours != k.neighbours || maxRadiusPx != k.maxRadiusPx)
+        const bool byPower = readRaw<std::uint8_t>(in) != 0;
+        if (kernel != static_cast<int>(k.kernel) || neighbours != k.neighbours || maxRadiusPx != k.maxRadiusPx ||
+            byPower != k.byPower)
             throw std::runtime_error("checkpoint: a layer's kernel differs from this render's");
     }
     // Read everything into fresh buffers first: a bad file leaves this film untouched.
@@ -388,6 +514,13 @@ void Film::load(std::istream& in) {
     for (auto& c : counts) {
         in.read(reinterpret_cast<char*>(c.data()), sizeof(std::uint32_t) * c.size());
         if (!in) throw std::runtime_error("checkpoint: truncated film data");
+    }
+    auto powers = powers_;
+    for (auto& p : powers) {
+        in.read(reinterpret_cast<char*>(p.data()), sizeof(double) * p.size());
+        if (!in) throw std::runtime_error("checkpoint: truncated film data");
+        if (!std::all_of(p.begin(), p.end(), [](double v) { return std::isfinite(v) && v >= 0.0; }))
+            throw std::runtime_error("checkpoint: invalid film data");
     }
     // A group's pass sums and their squares are written together: a tile in one is a tile in the other.
     for (int g = 0; g < groups; ++g) {
@@ -406,6 +539,8 @@ void Film::load(std::istream& in) {
     }
     counts_ = std::move(counts);
     pendingCounts_ = counts_;
+    powers_ = std::move(powers);
+    pendingPowers_ = powers_;
     passes_ = passes;
     std::lock_guard<std::mutex> lock(*estimateMutex_);
     estimates_.clear();

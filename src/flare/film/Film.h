@@ -8,7 +8,12 @@
 //   Adaptive     a k-nearest-neighbour (balloon) estimate: the radius is chosen so that about k
 //                earlier photons of the same layer fall inside it, measured on a coarse count grid
 //                of the passes already finished, so sparse regions (scatter, higher orders) get
-//                wide kernels and dense ones sharp kernels.
+//                wide kernels and dense ones sharp kernels. From kWideKernelPx on, the kernel is
+//                the separable tent (1 − |dx|/m)(1 − |dy|/m)/m², m the radius rounded, about the
+//                pixel centre nearest the photon (the same spread, r²/6 per axis, as the radial
+//                Epanechnikov kernel of radius r): it is added in constant time as nine second
+//                differences into a buffer that endPass integrates (two running sums per axis),
+//                where a radial kernel costs its area, r² px, per photon.
 // Kernels are normalised over the pixel centres they cover (off-image centres included), so a
 // photon's power is conserved exactly on the plane and only the part falling off the image is
 // lost. Memory does not depend on the photon count: layers are tiled, and a tile exists only once
@@ -23,6 +28,7 @@
 // in the order its caller gives them (the image does not depend on the number of threads).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <iosfwd>
@@ -49,6 +55,7 @@ struct FilmSettings {
 class Film {
 public:
     static constexpr int kBandRows = 32;  // the tile size: a band of rows owns its tiles
+    static constexpr double kWideKernelPx = 12.0;  // adaptive radii from here on: the tent, in O(1)
 
     // `layerCount` layers, each accumulating XYZ power. Throws std::invalid_argument for a
     // malformed setting (non-square pixels, non-positive sizes).
@@ -65,8 +72,13 @@ public:
 
     // A layer's own kernel, replacing the settings' for that layer (e.g. an adaptive kernel for a
     // smooth, sparse layer beside sharp fixed-kernel ones): kernel, neighbours and maxRadiusPx as
-    // in FilmSettings. Must be called before the first pass.
-    void setLayerKernel(int layer, FilmSettings::Kernel kernel, int neighbours, double maxRadiusPx);
+    // in FilmSettings. Must be called before the first pass. `byPower` (adaptive only): the
+    // kernel holds about `neighbours` times the photon's own power of the earlier photons, not
+    // that many photons: where photons of very different weights meet (light ones connected to
+    // the sensor beside rare heavy ones), a heavy photon is spread wider and a light one less, so
+    // that each adds noise in proportion to its power; with equal weights it is the count rule.
+    void setLayerKernel(int layer, FilmSettings::Kernel kernel, int neighbours, double maxRadiusPx,
+                        bool byPower = false);
     FilmSettings::Kernel layerKernel(int layer) const { return layerKernels_[layer].kernel; }
 
     // A further variance group: the sum of `layers` (whatever the splats' inTotal). Returns its
@@ -77,13 +89,14 @@ public:
     // Adds `xyzPowerW` (W, CIE XYZ) arriving at `sensorMm` (lens space) to a layer. When
     // `inTotal`, the power also counts towards the variance of the total image.
     void splat(int layer, const glm::dvec2& sensorMm, const glm::dvec3& xyzPowerW, bool inTotal = true);
-    // The part of that splat that falls in band `band`'s rows (a photon near a band's edge is
-    // given to both bands). The adaptive kernel's photon count goes to the band of the photon's row.
+    // The part of that splat that falls in band `band`'s rows. The caller gives the photon to
+    // every band within bandReachPx of its row (a kernel near a band's edge reaches two); the
+    // adaptive kernel's photon count goes to the band of the photon's row.
     void splatInBand(int band, int layer, const glm::dvec2& sensorMm, const glm::dvec3& xyzPowerW, bool inTotal = true);
     // Adds a band of pixel values (W per pixel, XYZ): `rows` holds kBandRows rows (fewer in the
     // last band) of width × 3 doubles from the band's first row. Zeros are skipped.
     void addBand(int band, int layer, const double* rows, bool inTotal = true);
-    // Ends a pass of `photons` photons (the divisor of this pass's image in the variance estimate;
+    // Ends a pass of `photons` photons (wide kernels' splats reach the layers here) (the divisor of this pass's image in the variance estimate;
     // every pass of a render must have the same count for the variance to be meaningful).
     void endPass(std::int64_t photons);
 
@@ -101,8 +114,17 @@ public:
         double relative() const { return squaredNorm > 0.0 ? std::sqrt(sumVariance / squaredNorm) : 0.0; }
     };
     ErrorEstimate errorEstimate(int group) const;
-    // Kernel radius (px) a photon landing now at `sensorMm` in `layer` would get.
-    double radiusPx(int layer, const glm::dvec2& sensorMm) const;
+    // The measure of a photon's power that a kernel by power holds: X + Y + Z, so that a blue
+    // or red photon (small Y) is not spread less than a green one of the same energy.
+    static double kernelPower(const glm::dvec3& xyzPowerW) { return std::max(xyzPowerW.x + xyzPowerW.y + xyzPowerW.z, 0.0); }
+    // Kernel radius (px) a photon of kernelPower `power` landing now at `sensorMm` in `layer`
+    // would get (the power matters only to a kernel by power).
+    double radiusPx(int layer, const glm::dvec2& sensorMm, double power = 0.0) const;
+    // How far (px) from its row that photon's splat writes rows: beyond the radius by the pixel
+    // a kernel's centre may be off and the rounding of a wide kernel's half-width.
+    double bandReachPx(int layer, const glm::dvec2& sensorMm, double power) const {
+        return radiusPx(layer, sensorMm, power) + 2.0;
+    }
 
     // Continuous pixel coordinates (centres at i + 0.5) of a sensor point, as a camera shows the
     // picture: the sensor image turned by 180°.
@@ -116,6 +138,7 @@ public:
 private:
     struct Tiles;
     struct Group;
+    struct WideSplats;
     // Adds the kernel's weights × value for the pixels of rows [rowBegin, rowEnd) to `layer` and
     // its groups (the total if inTotal).
     void addKernel(int layer, bool inTotal, const glm::dvec2& pixel, double radius, const glm::dvec3& value,
@@ -128,8 +151,15 @@ private:
         FilmSettings::Kernel kernel = FilmSettings::Kernel::Fixed;
         int neighbours = 0;
         double maxRadiusPx = 0.0;
+        bool byPower = false;
     };
     void allocateCounts();
+    // The tent of half-width m about pixel centre (cx, cy), as its nine second differences, the
+    // part of them in rows [rowBegin, rowEnd) (the first band also takes the rows above the
+    // image, the last those below).
+    void addWideKernel(int layer, bool inTotal, int cx, int cy, int m, const glm::dvec3& value, int rowBegin,
+                       int rowEnd);
+    void integrateWideSplats();
 
     FilmSettings settings_;
     std::vector<LayerKernel> layerKernels_;
@@ -140,6 +170,7 @@ private:
     std::vector<std::vector<int>> layerGroups_; // per layer: the groups ≥ 1 it belongs to
     // Adaptive kernel: photon counts per layer on a grid of kCountBlock² pixel blocks.
     std::vector<std::vector<std::uint32_t>> counts_, pendingCounts_;
+    std::vector<std::vector<double>> powers_, pendingPowers_;  // Y power per block (kernels by power)
     int countW_ = 0, countH_ = 0;
     // errorEstimate's last answer per group, valid while `passes` equals passes_.
     struct CachedEstimate {
@@ -148,6 +179,10 @@ private:
     };
     mutable std::vector<CachedEstimate> estimates_;
     std::unique_ptr<std::mutex> estimateMutex_ = std::make_unique<std::mutex>();  // (movable)
+    // Per layer and inTotal (0, 1): the wide kernels' second differences of the running pass,
+    // allocated by the first wide splat (under wideMutex_: bands run in parallel).
+    std::vector<std::unique_ptr<WideSplats>> wide_;
+    std::unique_ptr<std::mutex> wideMutex_ = std::make_unique<std::mutex>();
 };
 
 }  // namespace flare

@@ -49,6 +49,16 @@ glm::dvec3 samplePowerCosine(const glm::dvec3& axis, double exponent, double u1,
     return directionAround(axis, std::pow(1.0 - u1, 1.0 / (exponent + 1.0)), 2.0 * kPi * u2);
 }
 
+double paintLobeDensity(const glm::dvec3& n, const glm::dvec3& mirror, double diffuse, double glossy,
+                        double exponent, const glm::dvec3& w) {
+    const double cosTheta = glm::dot(n, w);
+    if (!(cosTheta > 0.0)) return 0.0;
+    double density = diffuse * cosTheta / kPi;
+    if (const double cosAlpha = glm::dot(mirror, w); glossy > 0.0 && cosAlpha > 0.0)
+        density += glossy * (exponent + 1.0) / (2.0 * kPi) * std::pow(cosAlpha, exponent);
+    return density;
+}
+
 glm::dvec3 sampleGgxNormal(const glm::dvec3& n, double alpha, double u1, double u2) {
     // tan²θ = α² u / (1 − u) inverts the CDF of D(m)(m·n) for GGX.
     const double tan2 = alpha * alpha * u1 / std::max(1.0 - u1, 1e-300);

@@ -20,6 +20,13 @@ glm::dvec3 sampleCosineHemisphere(const glm::dvec3& n, double u1, double u2);
 // A direction in the lobe cos^exponent about the unit axis (density (e+1)/(2π) cos^e).
 glm::dvec3 samplePowerCosine(const glm::dvec3& axis, double exponent, double u1, double u2);
 
+// A paint's scattering lobe: the share `diffuse` Lambertian about the unit normal n (towards the
+// photon) and the share `glossy` in the power-cosine lobe about the unit mirror direction, as the
+// photon tracer samples them; per steradian, towards the unit direction w (0 into the paint).
+// This is f·cosθ, the density of the analog walk's scattered direction (absorption included).
+double paintLobeDensity(const glm::dvec3& n, const glm::dvec3& mirror, double diffuse, double glossy,
+                        double exponent, const glm::dvec3& w);
+
 // A microfacet normal drawn from the GGX (Trowbridge–Reitz) distribution of roughness alpha about
 // the macro normal n, with density D(m)·(m·n).
 glm::dvec3 sampleGgxNormal(const glm::dvec3& n, double alpha, double u1, double u2);

@@ -186,12 +186,24 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
         }
         return true;
     };
+    // Stray light sampling (StrayLightSampling): the photon's weight while it stays above the floor.
+    double& weight = h.weight;
+    auto weighted = [&] { return stray_.weighted && weight >= kStrayWeightFloor; };
+    auto deposit = [&](PhotonFate fate, double share) { h.deposited[static_cast<int>(fate)] += share; };
+
     // A bounce off the interior: diffuse with probability `diffuse`, glossy (Phong lobe about the
-    // mirror direction) with probability `glossy`, else absorbed (analog).
-    auto scatterOff = [&](double diffuse, double glossy, const glm::dvec3& normalTowardsPhoton) {
+    // mirror direction) with probability `glossy`, else absorbed (analog; weighted, the photon
+    // always bounces and the absorbed share is deposited in `absorbed`).
+    auto scatterOff = [&](double diffuse, double glossy, const glm::dvec3& normalTowardsPhoton, PhotonFate absorbed) {
         if (diffuse <= 0.0 && glossy <= 0.0) return false;
-        const double u = rng.uniform();
-        if (u >= diffuse + glossy) return false;
+        double u = rng.uniform();
+        if (weighted()) {
+            deposit(absorbed, weight * (1.0 - diffuse - glossy));
+            weight *= diffuse + glossy;
+            u *= diffuse + glossy;
+        } else if (u >= diffuse + glossy) {
+            return false;
+        }
         const double u1 = rng.uniform(), u2 = rng.uniform();
         if (u < diffuse) {
             ray.direction = sampleCosineHemisphere(normalTowardsPhoton, u1, u2);
@@ -203,6 +215,58 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
         markScattered(ScatterSource::Housing);
         return true;
     };
+
+    // Next-event estimation in the sensor's cell (StrayLightSampling::connectSensor): before a
+    // bounce off its walls, a point drawn uniformly on the sensor is connected to the bounce. The
+    // bounce's direct hit, if its next event is the sensor, is weighted against it (power
+    // heuristic over the two strategies' densities per steradian).
+    const SensorSpec& sensor = lens.sensor();
+    const double sensorAreaMm2 = sensor.widthMm * sensor.heightMm;
+    struct Connection {
+        int event = -1;  // h.events of the bounce
+        glm::dvec3 pointMm{0.0}, normal{0.0}, mirror{0.0};
+        double diffuse = 0.0, glossy = 0.0, lobeShare = 1.0;  // lobeShare: d + g when weighted
+        double lobePdf(const glm::dvec3& w, double exponent) const {
+            return paintLobeDensity(normal, mirror, diffuse, glossy, exponent, w) / lobeShare;
+        }
+    } connection;
+    // False when the photon has no room for another arrival (it then stops: EventLimit).
+    auto connectToSensor = [&](const glm::dvec3& x, const glm::dvec3& normalTowardsPhoton, double diffuse,
+                               double glossy) {
+        connection = {h.events,   x,       normalTowardsPhoton, glm::normalize(reflect(ray.direction, normalTowardsPhoton)),
+                      diffuse,    glossy,  weighted() ? diffuse + glossy : 1.0};
+        const double u1 = rng.uniform(), u2 = rng.uniform();
+        const glm::dvec3 y((u1 - 0.5) * sensor.widthMm, (u2 - 0.5) * sensor.heightMm, lens.sensorZMm());
+        const double distance2 = glm::dot(y - x, y - x);
+        if (!(distance2 > 0.0)) return true;
+        const glm::dvec3 w = (y - x) / std::sqrt(distance2);
+        const double lobe = paintLobeDensity(normalTowardsPhoton, connection.mirror, diffuse, glossy,
+                                             materials_.glossExponent, w);
+        if (!(lobe > 0.0) || !(w.z > 0.0)) return true;
+        // Hidden if the last surface (or its bevel) lies in between; the wall is convex and the
+        // annulus and the body around the sensor face the other way.
+        const Surface& last = lens.surface(n - 1);
+        const Rim& rim = rims_[n - 1];
+        double tMin = kLeaveSurfaceMm;
+        for (int crossing = 0; crossing < 3; ++crossing) {
+            const SurfaceHit hit = intersect(last, Ray{x, w}, tMin);
+            if (hit.status != HitStatus::Hit || hit.tMm * hit.tMm >= distance2) break;
+            const glm::dvec3 p = x + hit.tMm * w;
+            if (p.x * p.x + p.y * p.y <= rim.extentMm * rim.extentMm * (1.0 + kSeamTolerance)) return true;
+            tMin = hit.tMm + kLeaveSurfaceMm;
+        }
+        if (h.arrivalCount == kMaxSensorArrivals) return false;
+        const double sensorPdf = distance2 / (sensorAreaMm2 * w.z);
+        const double lobePdf = lobe / connection.lobeShare;
+        const double mis = sensorPdf * sensorPdf / (sensorPdf * sensorPdf + lobePdf * lobePdf);
+        h.arrivals[h.arrivalCount++] = {{y.x, y.y},
+                                        weight * lobe / sensorPdf * mis * stray_.testConnectionScale,
+                                        key,
+                                        true,
+                                        scattered ? firstScatter : ScatterSource::Housing};
+        return true;
+    };
+    const bool connectSensor = stray_.connectSensor && !cells_[n].glass && mediumOfCell_[n] < 0 && sensorAreaMm2 > 0.0;
 
     while (h.events < kMaxPhotonEvents) {
         enum class Kind { None, Behind, Ahead, Wall, SensorPlane } kind = Kind::None;
@@ -299,9 +363,15 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
 
         if (kind == Kind::Wall) {
             const bool edge = cells_[cell].glass;
-            if (!scatterOff(edge ? materials_.edgeAlbedo : materials_.housingAlbedo,
-                            edge ? materials_.edgeGlossy : materials_.housingGlossy, wallNormal)) {
-                h.fate = edge ? PhotonFate::AbsorbedEdge : PhotonFate::AbsorbedHousing;
+            const double diffuse = edge ? materials_.edgeAlbedo : materials_.housingAlbedo;
+            const double glossy = edge ? materials_.edgeGlossy : materials_.housingGlossy;
+            const PhotonFate absorbed = edge ? PhotonFate::AbsorbedEdge : PhotonFate::AbsorbedHousing;
+            if (connectSensor && cell == n && diffuse + glossy > 0.0 && !connectToSensor(p, wallNormal, diffuse, glossy)) {
+                h.fate = PhotonFate::EventLimit;
+                return;
+            }
+            if (!scatterOff(diffuse, glossy, wallNormal, absorbed)) {
+                h.fate = absorbed;
                 return;
             }
             continue;
@@ -310,7 +380,8 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
         if (kind == Kind::SensorPlane) {
             const bool onSensor = std::abs(p.x) <= 0.5 * lens.sensor().widthMm && std::abs(p.y) <= 0.5 * lens.sensor().heightMm;
             if (!onSensor) {  // the camera body around the sensor
-                if (!scatterOff(materials_.housingAlbedo, materials_.housingGlossy, {0.0, 0.0, -1.0})) {
+                if (!scatterOff(materials_.housingAlbedo, materials_.housingGlossy, {0.0, 0.0, -1.0},
+                                PhotonFate::AbsorbedHousing)) {
                     h.fate = PhotonFate::AbsorbedHousing;
                     return;
                 }
@@ -320,8 +391,18 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
                 h.fate = PhotonFate::EventLimit;
                 return;
             }
-            h.arrivals[h.arrivalCount++] = {{p.x, p.y}, key, scattered, firstScatter};
-            if (rng.uniform() >= lens.sensor().reflectance) {
+            double mis = 1.0;
+            if (connection.event == h.events - 1) {  // straight from a bounce that was connected
+                const double distance2 = glm::dot(p - connection.pointMm, p - connection.pointMm);
+                const double sensorPdf = distance2 / (sensorAreaMm2 * ray.direction.z);
+                const double lobePdf = connection.lobePdf(ray.direction, materials_.glossExponent);
+                mis = lobePdf * lobePdf / (lobePdf * lobePdf + sensorPdf * sensorPdf);
+            }
+            h.arrivals[h.arrivalCount++] = {{p.x, p.y}, weight * mis, key, scattered, firstScatter};
+            if (weighted() && sensor.reflectance > 0.0) {
+                deposit(PhotonFate::AbsorbedSensor, weight * (1.0 - sensor.reflectance));
+                weight *= sensor.reflectance;
+            } else if (rng.uniform() >= sensor.reflectance) {
                 h.fate = PhotonFate::AbsorbedSensor;
                 return;
             }
@@ -345,7 +426,7 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
                 cell = other;
                 continue;
             }
-            if (!scatterOff(materials_.irisAlbedo, materials_.irisGlossy, towardsPhoton)) {
+            if (!scatterOff(materials_.irisAlbedo, materials_.irisGlossy, towardsPhoton, PhotonFate::AbsorbedIris)) {
                 h.fate = PhotonFate::AbsorbedIris;
                 return;
             }
@@ -355,7 +436,7 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
             // Outside the clear aperture (within the seam tolerance of the rim): the retaining ring.
             glm::dvec3 normal = surface.normalAt(p);
             if (glm::dot(normal, ray.direction) > 0.0) normal = -normal;
-            if (!scatterOff(materials_.housingAlbedo, materials_.housingGlossy, normal)) {
+            if (!scatterOff(materials_.housingAlbedo, materials_.housingGlossy, normal, PhotonFate::AbsorbedHousing)) {
                 h.fate = PhotonFate::AbsorbedHousing;
                 return;
             }

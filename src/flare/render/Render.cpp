@@ -149,6 +149,8 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
       film_(options.film, kFixedLayerCount) {
     for (int l = 0; l < kFixedLayerCount; ++l) layerNames_.push_back(renderLayerName(l));
     if (options.tabulatedReflectance) tracer_.tabulateReflectance();
+    if (options.strayLightSampling && options.mode != RenderOptions::Mode::Naive)
+        tracer_.setStrayLightSampling({.weighted = true, .connectSensor = true});
     std::unordered_map<std::string, int> ghostLayerOfLabel;
     const InteriorMaterials& m = options.materials;
     const bool anyScattering = m.housingAlbedo + m.edgeAlbedo + m.irisAlbedo + m.housingGlossy + m.edgeGlossy +
@@ -460,13 +462,13 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
     if (layerNames_.size() > kFixedLayerCount) film_ = Film(options.film, static_cast<int>(layerNames_.size()));
     if (options.smoothNeighbours > 0 && options.film.kernel == FilmSettings::Kernel::Fixed) {
         const double maxRadiusPx = std::max(options.film.maxRadiusPx, options.film.widthPx / 16.0);
-        film_.setLayerKernel(kLayerScatter, FilmSettings::Kernel::Adaptive, options.smoothNeighbours, maxRadiusPx);
+        film_.setLayerKernel(kLayerScatter, FilmSettings::Kernel::Adaptive, options.smoothNeighbours, maxRadiusPx, true);
         // The higher layer's photons too (its beams are rasterised exactly, whatever the kernel):
         // what the guided chains leave to the unguided tracer, a few sparse photons.
-        film_.setLayerKernel(kLayerHigher, FilmSettings::Kernel::Adaptive, options.smoothNeighbours, maxRadiusPx);
+        film_.setLayerKernel(kLayerHigher, FilmSettings::Kernel::Adaptive, options.smoothNeighbours, maxRadiusPx, true);
         for (int layer : scatterSourceLayer_)
             if (layer >= 0)
-                film_.setLayerKernel(layer, FilmSettings::Kernel::Adaptive, options.smoothNeighbours, maxRadiusPx);
+                film_.setLayerKernel(layer, FilmSettings::Kernel::Adaptive, options.smoothNeighbours, maxRadiusPx, true);
     }
     for (int l = 0; l < kFixedLayerCount; ++l) film_.addVarianceGroup({l});
     film_.addVarianceGroup({kLayerGhost, kLayerHigher, kLayerScatter});
@@ -557,6 +559,7 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
         ++stats.sensorHits;
     };
 
+    const bool straySampling = tracer_.strayLightSampling().weighted;
     for (int photon = 0; photon < options_.batchPhotons; ++photon) {
         ++stats.photons;
         const double uComponent = rng.uniform();
@@ -609,7 +612,9 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
         stats.realCollisions += history.realCollisions;
         FateTally& fate = stats.fates[static_cast<int>(history.fate)];
         ++fate.photons;
-        fate.powerW += weight;
+        fate.powerW += weight * history.weight;
+        if (straySampling)
+            for (int f = 0; f < static_cast<int>(PhotonFate::Count); ++f) stats.fates[f].powerW += weight * history.deposited[f];
         if (history.entered) stats.unguidedEnteredPowerW += weight;
         if (weight == 0.0) continue;
         for (int i = 0; i < history.arrivalCount; ++i) {
@@ -629,12 +634,13 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
                     ghostLayer = light.ghostLayer[slot];
                 }
             }
+            const glm::dvec3 xyzW = xyzWeight * (weight * arrival.weight);
             if (arrival.scattered) {
                 const int source = static_cast<int>(arrival.firstScatter) - 1;
-                out.sourceSums[source] += (xyzWeight * weight).y;
+                out.sourceSums[source] += xyzW.y;
                 ghostLayer = scatterSourceLayer_[source];
             }
-            score(layer, ghostLayer, tally, arrival.positionMm, xyzWeight * weight);
+            score(layer, ghostLayer, tally, arrival.positionMm, xyzW);
         }
     }
 }
@@ -769,9 +775,9 @@ void Renderer::merge(const std::vector<BatchResult>& batches, const std::vector<
     auto bucket = [&](const Hit& hit) {
         const glm::dvec2 sensorMm(hit.xMm, hit.yMm);
         const double row = film_.toPixel(sensorMm).y;
-        const double reach =
-            std::max(film_.radiusPx(hit.layer, sensorMm), hit.ghostLayer >= 0 ? film_.radiusPx(hit.ghostLayer, sensorMm) : 0.0) +
-            1.0;
+        const double power = Film::kernelPower(glm::dvec3(hit.xyz[0], hit.xyz[1], hit.xyz[2]));
+        const double reach = std::max(film_.bandReachPx(hit.layer, sensorMm, power),
+                                      hit.ghostLayer >= 0 ? film_.bandReachPx(hit.ghostLayer, sensorMm, power) : 0.0);
         const int first = std::max(0, static_cast<int>(std::floor((row - reach) / Film::kBandRows)));
         const int last = std::min(bandCount - 1, static_cast<int>(std::floor((row + reach) / Film::kBandRows)));
         for (int b = first; b <= last; ++b) byBand[b].push_back({&hit});
@@ -951,7 +957,8 @@ std::uint64_t Renderer::fingerprint() const {
                         static_cast<int>(options_.film.kernel), lens_->surfaceCount(), options_.beamsPerPass,
                         options_.correctionPhotonsPerBeam, options_.beamMeshLevel,
                         static_cast<int>(std::lround(options_.testBeamShiftPx * 1024.0)), options_.maxAnalysedChains,
-                        options_.smoothNeighbours, options_.tabulatedReflectance ? 1 : 0};
+                        options_.smoothNeighbours, options_.tabulatedReflectance ? 1 : 0,
+                        options_.strayLightSampling ? 1 : 0};
     mix(ints, sizeof ints);
     for (const Component& c : components_) {
         mix(&c.light, sizeof c.light);

@@ -87,6 +87,9 @@ struct RenderOptions {
     // The photon tracer's reflect-or-refract probabilities from a SpectralReflectance table
     // (PhotonTracer::tabulateReflectance) rather than the exact coating response.
     bool tabulatedReflectance = true;
+    // The unguided photons of the guided modes sample stray light with weights and connections to
+    // the sensor (PhotonTracer's StrayLightSampling); the naive mode stays analog, the reference.
+    bool strayLightSampling = true;
     // Chains of four reflections (the `higher` layer): the strongest are enumerated and guided
     // like ghosts when the lens's reflectances make them matter (Auto: when the estimated ratio of
     // their power to the ghosts', higherOrderShareEstimate, reaches the threshold), else they are

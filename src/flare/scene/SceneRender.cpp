@@ -36,6 +36,7 @@ RenderOptions sceneRenderOptions(const Scene& scene, const LensSystem& lens, con
     options.film.kernel = overrides.kernel;
     options.film.radiusPx = overrides.radiusPx;
     options.smoothNeighbours = overrides.smoothNeighbours;
+    options.strayLightSampling = overrides.strayLightSampling;
     if (overrides.kernel == FilmSettings::Kernel::Progressive && overrides.radiusPx == 1.0) options.film.radiusPx = 4.0;
     return options;
 }

@@ -1,6 +1,7 @@
 // The sensor film as a density estimator: exact power conservation of its kernels (and the exact
 // off-image loss at the border), the camera-view orientation, the progressive and adaptive radii,
-// the per-pass variance estimate against a known variance (χ²), checkpoints and bad settings.
+// the per-pass variance estimate against a known variance (χ²), checkpoints and bad settings,
+// the wide kernels added at the end of a pass and the adaptive kernel by power.
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -590,7 +591,7 @@ TEST(Film, LoadRejectsAnInconsistentCheckpoint) {
     }
     std::string bytes = saved(original);
     const size_t tileBytes = 32 * 32 * 3 * sizeof(double);
-    ASSERT_EQ(bytes.size(), 8 + 6 * 4 + (4 + 4 + 8) + 3 * (1 + tileBytes));
+    ASSERT_EQ(bytes.size(), 8 + 6 * 4 + (4 + 4 + 8 + 1) + 3 * (1 + tileBytes));
     bytes.resize(bytes.size() - tileBytes);  // drop the sum-of-squares tile ...
     bytes.back() = 0;                        // ... and mark it absent
     Film restored(s, 1);
@@ -624,6 +625,72 @@ TEST(Film, InvalidSettingsThrow) {
     EXPECT_THROW(make([](FilmSettings& s) { s.maxRadiusPx = 0.5; }), std::invalid_argument);
     EXPECT_THROW(make([](FilmSettings& s) { s.progressiveAlpha = 0.0; }), std::invalid_argument);
     EXPECT_THROW(make([](FilmSettings& s) { s.progressiveAlpha = 1.0; }), std::invalid_argument);
+}
+
+// From Film::kWideKernelPx on, an adaptive layer's kernel is the separable tent of half-width
+// m = round(r) about the pixel centre nearest the photon, (m − |dx|)(m − |dy|)/m⁴, added at the
+// end of the pass: every pixel holds exactly its share (the off-image part is lost), a banded
+// splat is the same image, and before endPass nothing shows.
+TEST(Film, WideKernelsAreTheDocumentedTentAddedAtTheEndOfThePass) {
+    FilmSettings s = filmSettings(120, 90, Kernel::Adaptive);
+    s.maxRadiusPx = 20.3;  // no counts yet: every photon gets it, m = 20
+    const int m = 20;
+    const glm::dvec3 power(0.5, 1.5, 3.0);
+    // Inside, near a corner (part off the image) and off the image by more than the half-width
+    // in x (only its far tail is on it).
+    const glm::dvec2 points[] = {{60.3, 41.8}, {4.6, 85.2}, {-12.5, 30.1}};
+    for (const glm::dvec2& p : points) {
+        Film whole(s, 1), banded(s, 1);
+        whole.splat(0, sensorAt(s, p.x, p.y), power);
+        for (int band = 0; band < banded.bandCount(); ++band)
+            banded.splatInBand(band, 0, sensorAt(s, p.x, p.y), power);
+        EXPECT_EQ(layerPowerW(whole, 0, 1.0), glm::dvec3(0.0)) << "before the end of the pass";
+        whole.endPass(1);
+        banded.endPass(1);
+        EXPECT_EQ(whole.irradianceXyz(0, 1.0), banded.irradianceXyz(0, 1.0));
+        const int cx = static_cast<int>(std::floor(p.x)), cy = static_cast<int>(std::floor(p.y));
+        auto weight = [&](int x, int y) {
+            return std::max(0, m - std::abs(x - cx)) * std::max(0, m - std::abs(y - cy)) / std::pow(m, 4.0);
+        };
+        double onImage = 0.0;
+        const std::vector<float> xyz = whole.irradianceXyz(0, 1.0);
+        for (int y = 0; y < s.heightPx; ++y)
+            for (int x = 0; x < s.widthPx; ++x) {
+                const double expected = power.z * weight(x, y) / pixelAreaM2(whole);
+                onImage += weight(x, y);
+                ASSERT_NEAR(xyz[(static_cast<size_t>(y) * s.widthPx + x) * 3 + 2], expected, kFloatRelative * expected + 1e-30)
+                    << "at " << p.x << ", " << p.y << ": pixel " << x << ", " << y;
+            }
+        EXPECT_NEAR(layerPowerW(whole, 0, 1.0).y, onImage * power.y, kFloatRelative * power.y);
+        EXPECT_GT(onImage, 0.0);
+    }
+}
+
+// A layer whose adaptive kernel is by power: the radius holds k times the photon's own power of
+// the earlier photons, so with equal weights it is the count rule, and a photon four times as
+// heavy gets twice the radius (while both stay between 1 px and the largest radius).
+TEST(Film, AKernelByPowerSpreadsAHeavyPhotonWider) {
+    FilmSettings s = filmSettings(64, 64, Kernel::Fixed);
+    Film film(s, 2);
+    film.setLayerKernel(0, Kernel::Adaptive, 50, 30.0);        // by count
+    film.setLayerKernel(1, Kernel::Adaptive, 50, 30.0, true);  // by power
+    Rng rng(3, 0);
+    const glm::dvec3 unit(1.0, 2.0, 1.0);  // kernelPower 4
+    for (int i = 0; i < 4096; ++i) {
+        const glm::dvec2 at = sensorAt(s, 64.0 * rng.uniform(), 64.0 * rng.uniform());
+        film.splat(0, at, unit);
+        film.splat(1, at, unit);
+    }
+    film.endPass(4096);
+    const glm::dvec2 probe = sensorAt(s, 20.5, 36.5);
+    const double byCount = film.radiusPx(0, probe);
+    EXPECT_GT(byCount, 1.5);
+    EXPECT_LT(byCount, 15.0);
+    EXPECT_NEAR(film.radiusPx(1, probe, Film::kernelPower(unit)), byCount, 1e-12 * byCount);
+    EXPECT_NEAR(film.radiusPx(1, probe, 4.0 * Film::kernelPower(unit)), 2.0 * byCount, 1e-12 * byCount);
+    EXPECT_EQ(film.radiusPx(1, probe, 0.0), 1.0);
+    // The count layer ignores the power.
+    EXPECT_EQ(film.radiusPx(0, probe, 100.0), byCount);
 }
 
 }  // namespace

@@ -116,8 +116,11 @@ TEST(Render, GuidedAgreesWithNaivePerGhostAndPerLayer) {
 TEST(Render, EveryUnguidedPhotonIsAccountedFor) {
     const Scene scene = doubletScene();
     const LensSystem lens = buildSceneLens(scene);
-    for (double albedo : {0.0, 1.0}) {
-        RenderOptions o = optionsFor(scene, lens, RenderOptions::Mode::Naive);
+    // Naive: analog photons, one fate each. Guided: its unguided photons sample stray light with
+    // weights (PhotonTracer's StrayLightSampling), depositing shares of their power on the way.
+    for (const auto [mode, albedo] : {std::pair{RenderOptions::Mode::Naive, 0.0}, std::pair{RenderOptions::Mode::Naive, 1.0},
+                                      std::pair{RenderOptions::Mode::Guided, 0.0}, std::pair{RenderOptions::Mode::Guided, 1.0}}) {
+        RenderOptions o = optionsFor(scene, lens, mode);
         o.materials = {albedo, albedo, albedo};
         Renderer r(lens, scene.lights, o);
         r.runPass();

@@ -1,0 +1,169 @@
+// Stray light sampling (PhotonTracer's StrayLightSampling): weights instead of absorption by
+// roulette at the interior finishes and the sensor, and connections to the sensor from the walls
+// of the sensor's cell, against the analog walk. Per photon, both walks give unbiased estimates of
+// the same quantities: the power arriving on the sensor (unscattered, scattered, by sensor
+// quadrant) and the power ending in each fate. Their means must agree within statistics; a
+// connection off by a factor of 2 must not.
+#include <array>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <glm/geometric.hpp>
+#include <gtest/gtest.h>
+
+#include "TestUtil.h"
+#include "flare/optics/LensFile.h"
+#include "flare/photons/PhotonTracer.h"
+
+namespace flare {
+namespace {
+
+constexpr int kFates = static_cast<int>(PhotonFate::Count);
+
+// Per-photon tallies: arrival power unscattered, scattered, scattered in each sensor quadrant,
+// and the share of the photon's power ending in each fate.
+constexpr int kArrivalTallies = 6;
+constexpr int kTallies = kArrivalTallies + kFates;
+
+struct Moments {
+    std::array<double, kTallies> sum{}, sumSquares{};
+    long photons = 0;
+    double mean(int t) const { return sum[t] / photons; }
+    double varianceOfMean(int t) const {
+        const double m = mean(t);
+        return std::max(0.0, sumSquares[t] / photons - m * m) / (photons - 1.0);
+    }
+};
+
+// A double Gauss whose sensor reflects 30 % (so that much light comes back to the walls of the
+// sensor's cell) with a grey, partly glossy interior.
+LensSystem reflectiveLens() {
+    LensPrescription p = loadLensFile(test::sourcePath("lenses/double-gauss-50mm.lens"));
+    p.sensor.reflectance = 0.3;
+    return LensSystem::build(p);
+}
+
+InteriorMaterials greyInterior() {
+    InteriorMaterials m;
+    m.housingAlbedo = 0.25, m.housingGlossy = 0.15;
+    m.edgeAlbedo = 0.2, m.irisAlbedo = 0.2, m.irisGlossy = 0.1;
+    m.glossExponent = 12.0;
+    return m;
+}
+
+Moments traceMoments(const PhotonTracer& tracer, long photons, std::uint64_t seed) {
+    const LensSystem& lens = tracer.lens();
+    const SpectralIndices indices = lens.indicesAt(550.0);
+    Rng rng(seed, 0);
+    const auto scratch = tracer.makeScratch();
+    PhotonHistory h;
+    Moments m;
+    m.photons = photons;
+    const glm::dvec3 d = glm::normalize(glm::dvec3(0.25, 0.12, 1.0));  // 15° off axis
+    for (long i = 0; i < photons; ++i) {
+        const double r = 13.0 * std::sqrt(rng.uniform()), phi = 2.0 * std::numbers::pi * rng.uniform();
+        tracer.trace(indices, Ray{glm::dvec3(r * std::cos(phi), r * std::sin(phi), -5.0) - 10.0 * d, d}, rng, h, *scratch);
+        std::array<double, kTallies> t{};
+        for (int a = 0; a < h.arrivalCount; ++a) {
+            const SensorArrival& arrival = h.arrivals[a];
+            if (!arrival.scattered) {
+                t[0] += arrival.weight;
+                continue;
+            }
+            t[1] += arrival.weight;
+            t[2 + (arrival.positionMm.x > 0.0) + 2 * (arrival.positionMm.y > 0.0)] += arrival.weight;
+        }
+        double shares = h.weight;
+        for (int f = 0; f < kFates; ++f) shares += h.deposited[f];
+        // Every photon's power is accounted for exactly, whatever the sampling.
+        EXPECT_NEAR(shares, 1.0, 1e-12);
+        t[kArrivalTallies + static_cast<int>(h.fate)] += h.weight;
+        for (int f = 0; f < kFates; ++f) t[kArrivalTallies + f] += h.deposited[f];
+        for (int k = 0; k < kTallies; ++k) m.sum[k] += t[k], m.sumSquares[k] += t[k] * t[k];
+    }
+    return m;
+}
+
+// The largest |z| over the tallies either walk reached, and how many were compared.
+struct Comparison {
+    double largestZ = 0.0;
+    int compared = 0;
+    std::string worst;
+};
+Comparison compare(const Moments& a, const Moments& b) {
+    static const char* names[kArrivalTallies] = {"unscattered", "scattered", "scattered q0", "scattered q1",
+                                                 "scattered q2", "scattered q3"};
+    Comparison c;
+    for (int t = 0; t < kTallies; ++t) {
+        const double sigma = std::sqrt(a.varianceOfMean(t) + b.varianceOfMean(t));
+        if (sigma == 0.0) {
+            EXPECT_EQ(a.mean(t), b.mean(t)) << t;
+            continue;
+        }
+        ++c.compared;
+        const double z = std::abs(a.mean(t) - b.mean(t)) / sigma;
+        if (z > c.largestZ) {
+            c.largestZ = z;
+            c.worst = t < kArrivalTallies ? names[t] : toString(static_cast<PhotonFate>(t - kArrivalTallies));
+        }
+    }
+    return c;
+}
+
+TEST(StrayLightSampling, WeightsAndSensorConnectionsAgreeWithTheAnalogWalk) {
+    const LensSystem lens = reflectiveLens();
+    const PhotonTracer analog(lens, greyInterior());
+    PhotonTracer sampled(lens, greyInterior());
+    sampled.setStrayLightSampling({.weighted = true, .connectSensor = true});
+    const long N = 120000;
+    const Moments a = traceMoments(analog, N, 11), b = traceMoments(sampled, N, 12);
+    const Comparison c = compare(a, b);
+    ASSERT_GE(c.compared, kArrivalTallies + 4);  // the arrivals and at least four fates
+    const double z = test::normalTwoSidedCritical(1e-3 / c.compared);  // Bonferroni
+    EXPECT_LT(c.largestZ, z) << "worst: " << c.worst;
+    // The point of it: the scattered power's standard error is several times smaller.
+    EXPECT_LT(b.varianceOfMean(1), 0.25 * a.varianceOfMean(1));
+
+    // Each half alone, too (weights without connections, connections without weights).
+    for (const bool weighted : {false, true}) {
+        PhotonTracer half(lens, greyInterior());
+        half.setStrayLightSampling({.weighted = weighted, .connectSensor = !weighted});
+        const Comparison h = compare(a, traceMoments(half, N, 13 + weighted));
+        EXPECT_LT(h.largestZ, z) << (weighted ? "weights" : "connections") << ", worst: " << h.worst;
+    }
+}
+
+// The test can fail: connections carrying twice their power (a broken MIS weight or sensor
+// density) are caught in the scattered power.
+TEST(StrayLightSampling, AConnectionOffByTwoIsCaught) {
+    const LensSystem lens = reflectiveLens();
+    const PhotonTracer analog(lens, greyInterior());
+    PhotonTracer broken(lens, greyInterior());
+    broken.setStrayLightSampling({.weighted = true, .connectSensor = true, .testConnectionScale = 2.0});
+    const long N = 120000;
+    const Moments a = traceMoments(analog, N, 11), b = traceMoments(broken, N, 12);
+    const Comparison c = compare(a, b);
+    const double z = test::normalTwoSidedCritical(1e-3 / c.compared);
+    EXPECT_GT(c.largestZ, z);
+    EXPECT_EQ(c.worst.rfind("scattered", 0), 0u) << c.worst;
+}
+
+// Nothing absorbs inside (Lambertian albedo 1) and the sensor reflects: the weighted walk still
+// sends every photon's whole power out of the front or into the sensor.
+TEST(StrayLightSampling, WithAWhiteInteriorAllPowerEscapesOrReachesTheSensor) {
+    const LensSystem lens = reflectiveLens();
+    InteriorMaterials white;
+    white.housingAlbedo = white.edgeAlbedo = white.irisAlbedo = 1.0;
+    PhotonTracer tracer(lens, white);
+    tracer.setStrayLightSampling({.weighted = true, .connectSensor = true});
+    const Moments m = traceMoments(tracer, 20000, 5);
+    const double out = m.mean(kArrivalTallies + static_cast<int>(PhotonFate::Escaped)) +
+                       m.mean(kArrivalTallies + static_cast<int>(PhotonFate::AbsorbedSensor)) +
+                       m.mean(kArrivalTallies + static_cast<int>(PhotonFate::EventLimit));
+    EXPECT_NEAR(out, 1.0, 1e-9);
+    EXPECT_GT(m.mean(kArrivalTallies + static_cast<int>(PhotonFate::AbsorbedSensor)), 0.0);
+}
+
+}  // namespace
+}  // namespace flare
