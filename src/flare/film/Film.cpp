@@ -10,6 +10,10 @@
 #include <ostream>
 #include <stdexcept>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
 #include "flare/core/Spectrum.h"
 
 namespace flare {
@@ -309,45 +313,63 @@ void Film::integrateWideSplats() {
         std::fill(wide->boxes.begin(), wide->boxes.end(), WideSplats::Box{});
         if (box.x1 < 0) continue;
         // Two running sums along each axis turn the second differences into the tents; every tent
-        // ends inside the box (its last difference lies on the box's edge at the latest).
-        for (int y = box.y0; y <= box.y1; ++y) {
-            double first[3] = {0, 0, 0}, second[3] = {0, 0, 0};
-            for (int x = box.x0; x <= box.x1; ++x) {
-                double* d = wide->at(x, y);
-                for (int c = 0; c < 3; ++c) first[c] += d[c], second[c] += first[c], d[c] = second[c];
+        // ends inside the box (its last difference lies on the box's edge at the latest). Rows
+        // in parallel, then the columns in parallel strips walked row by row (each strip's sums
+        // in its own order: the result does not depend on the threads).
+        const int span = (box.x1 - box.x0 + 1) * 3;
+        tbb::parallel_for(tbb::blocked_range<int>(box.y0, box.y1 + 1, 16), [&](const tbb::blocked_range<int>& rows) {
+            for (int y = rows.begin(); y != rows.end(); ++y) {
+                double first[3] = {0, 0, 0}, second[3] = {0, 0, 0};
+                double* d = wide->at(box.x0, y);
+                for (int i = 0; i < span; i += 3)
+                    for (int c = 0; c < 3; ++c) first[c] += d[i + c], second[c] += first[c], d[i + c] = second[c];
             }
-        }
-        for (int x = box.x0; x <= box.x1; ++x) {
-            double first[3] = {0, 0, 0}, second[3] = {0, 0, 0};
-            for (int y = box.y0; y <= box.y1; ++y) {
-                double* d = wide->at(x, y);
-                for (int c = 0; c < 3; ++c) first[c] += d[c], second[c] += first[c], d[c] = second[c];
-            }
-        }
+        });
+        const double largest = tbb::parallel_reduce(
+            tbb::blocked_range<int>(0, span, 384), 0.0,
+            [&](const tbb::blocked_range<int>& strip, double largestSoFar) {
+                std::vector<double> first(strip.size(), 0.0), second(strip.size(), 0.0);
+                for (int y = box.y0; y <= box.y1; ++y) {
+                    double* d = wide->at(box.x0, y) + strip.begin();
+                    for (size_t i = 0; i < strip.size(); ++i) {
+                        first[i] += d[i], second[i] += first[i], d[i] = second[i];
+                        largestSoFar = std::max(largestSoFar, std::abs(d[i]));
+                    }
+                }
+                return largestSoFar;
+            },
+            [](double a, double b) { return std::max(a, b); });
         // The sums cancel to zero outside the tents only up to rounding: values below 1e-12 of
         // the largest (and any negative one: every tent and value is non-negative) are that.
-        double largest = 0.0;
-        for (int y = box.y0; y <= box.y1; ++y)
-            for (int x = box.x0; x <= box.x1; ++x)
-                for (int c = 0; c < 3; ++c) largest = std::max(largest, std::abs(wide->at(x, y)[c]));
         const double floor = 1e-12 * largest;
         const int layer = static_cast<int>(index / 2);
         const bool inTotal = index % 2 == 1;
         const int xBegin = std::max(box.x0, wide->pad), xEnd = std::min(box.x1 + 1, wide->pad + settings_.widthPx);
-        const int yBegin = std::max(box.y0, wide->pad), yEnd = std::min(box.y1 + 1, wide->pad + settings_.heightPx);
-        for (int y = yBegin; y < yEnd; ++y)
-            for (int x = xBegin; x < xEnd; ++x) {
-                double v[3];
-                bool any = false;
-                for (int c = 0; c < 3; ++c) {
-                    const double d = wide->at(x, y)[c];
-                    v[c] = d > floor ? d : 0.0;
-                    any = any || v[c] > 0.0;
-                }
-                if (any) addPixel(layer, inTotal, x - wide->pad, y - wide->pad, v);
+        const int yBegin = std::max(box.y0, wide->pad);
+        int yEnd = std::min(box.y1 + 1, wide->pad + settings_.heightPx);
+        // By bands of image rows: a band owns its tiles (see the class comment).
+        if (xBegin >= xEnd || yBegin >= yEnd) yEnd = yBegin;  // all off the image: nothing to add
+        const int firstBand = (yBegin - wide->pad) / kBandRows, lastBand = (yEnd - 1 - wide->pad) / kBandRows;
+        tbb::parallel_for(tbb::blocked_range<int>(firstBand, std::max(firstBand, lastBand + 1), 1), [&](const tbb::blocked_range<int>& bands) {
+            for (int band = bands.begin(); band != bands.end(); ++band) {
+                const int y0 = std::max(yBegin, band * kBandRows + wide->pad);
+                const int y1 = std::min(yEnd, (band + 1) * kBandRows + wide->pad);
+                for (int y = y0; y < y1; ++y)
+                    for (int x = xBegin; x < xEnd; ++x) {
+                        double v[3];
+                        bool any = false;
+                        for (int c = 0; c < 3; ++c) {
+                            const double d = wide->at(x, y)[c];
+                            v[c] = d > floor ? d : 0.0;
+                            any = any || v[c] > 0.0;
+                        }
+                        if (any) addPixel(layer, inTotal, x - wide->pad, y - wide->pad, v);
+                    }
             }
-        for (int y = box.y0; y <= box.y1; ++y)
-            std::fill(wide->at(box.x0, y), wide->at(box.x0, y) + static_cast<size_t>(box.x1 - box.x0 + 1) * 3, 0.0);
+        });
+        tbb::parallel_for(tbb::blocked_range<int>(box.y0, box.y1 + 1, 16), [&](const tbb::blocked_range<int>& rows) {
+            for (int y = rows.begin(); y != rows.end(); ++y) std::fill(wide->at(box.x0, y), wide->at(box.x0, y) + span, 0.0);
+        });
     }
 }
 
