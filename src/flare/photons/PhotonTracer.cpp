@@ -268,11 +268,48 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
     };
     const bool connectSensor = stray_.connectSensor && !cells_[n].glass && mediumOfCell_[n] < 0 && sensorAreaMm2 > 0.0;
 
+    // Branches of the walk (stray light sampling at dusty and greasy surfaces, see
+    // StrayLightSampling): where the photon met such a surface, its state, to be resumed at the
+    // same point with the contamination's outcome forced.
+    enum class Kind { None, Behind, Ahead, Wall, SensorPlane };
+    enum class Outcome : std::uint8_t { Drawn, Met, Missed };
+    struct Branch {
+        Ray ray;
+        int cell = 0, onSurface = -1, reflections = 0;
+        PathKey key = 0;
+        bool scattered = false;
+        ScatterSource firstScatter = ScatterSource::None;
+        double weight = 0.0;
+        Kind kind = Kind::None;
+        Outcome dust = Outcome::Drawn, grease = Outcome::Drawn;
+    };
+    std::array<Branch, kMaxStrayBranches> branches;
+    int branchCount = 0;
+    Kind resumeKind = Kind::None;  // a resumed branch stands on its surface: no search
+    Outcome dustOutcome = Outcome::Drawn, greaseOutcome = Outcome::Drawn;
+    // Whether contamination met with probability `coverage` splits the walk into a branch that
+    // meets it (weight × coverage) and one that does not (weight × (1 − coverage)), rather than
+    // choosing one by roulette.
+    auto splits = [&](double coverage) {
+        return stray_.weighted && coverage < 1.0 && weight * coverage >= kStrayWeightFloor &&
+               branchCount < kMaxStrayBranches;
+    };
+    auto pushBranch = [&](Kind kind, double coverage, Outcome dust, Outcome grease) {
+        branches[branchCount++] = {ray,          cell, onSurface, h.reflections, key, scattered, firstScatter,
+                                   weight * coverage, kind, dust, grease};
+        weight *= 1.0 - coverage;
+    };
+
+    auto walk = [&] {
     while (h.events < kMaxPhotonEvents) {
-        enum class Kind { None, Behind, Ahead, Wall, SensorPlane } kind = Kind::None;
+        Kind kind = Kind::None;
         double best = kInf;
         glm::dvec3 wallNormal(0.0);
 
+        if (resumeKind != Kind::None) {
+            kind = resumeKind, best = 0.0;
+            resumeKind = Kind::None;
+        } else {
         auto trySurface = [&](int k, Kind which) {
             // A ray near the wall can cross the surface's continuation beyond its rim (where the
             // surface does not exist) before crossing the surface itself: look past such hits.
@@ -355,6 +392,7 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
                 markScattered(ScatterSource::Bulk);
                 continue;
             }
+        }
         }
         ++h.events;
         const glm::dvec3 p = ray.at(best);
@@ -454,8 +492,21 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
         if (hasContamination_ && contamination_[k].any()) {
             const SurfaceContamination& c = contamination_[k];
             // Zero local coverage draws no random number: a clean patch traces as a clean lens.
-            if (const double dust = c.dustCoverageAt(p.x, p.y); dust > 0.0 && rng.uniform() < dust) {
-                if (rng.uniform() >= c.dustAlbedo) {
+            // A resumed branch has its outcome forced; stray light sampling splits the walk.
+            const double dust = c.dustCoverageAt(p.x, p.y);
+            bool metDust = dustOutcome == Outcome::Met;
+            if (dustOutcome == Outcome::Drawn && dust > 0.0) {
+                if (splits(dust))
+                    pushBranch(kind, dust, Outcome::Met, Outcome::Drawn);
+                else
+                    metDust = rng.uniform() < dust;
+            }
+            dustOutcome = Outcome::Drawn;
+            if (metDust) {
+                if (weighted()) {
+                    deposit(PhotonFate::AbsorbedDust, weight * (1.0 - c.dustAlbedo));
+                    weight *= c.dustAlbedo;
+                } else if (rng.uniform() >= c.dustAlbedo) {
                     h.fate = PhotonFate::AbsorbedDust;
                     return;
                 }
@@ -474,9 +525,21 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
                 markScattered(ScatterSource::Dust);
                 // The particle sits on the surface: the scattered light meets the interface now
                 // if it still heads into it, else it leaves back into this cell.
-                if ((glm::dot(normal, ray.direction) > 0.0) != forward) continue;
+                if ((glm::dot(normal, ray.direction) > 0.0) != forward) {
+                    greaseOutcome = Outcome::Drawn;
+                    continue;
+                }
             }
-            if (const double grease = c.greaseCoverageAt(p.x, p.y); grease > 0.0 && rng.uniform() < grease) {
+            const double grease = c.greaseCoverageAt(p.x, p.y);
+            bool metGrease = greaseOutcome == Outcome::Met;
+            if (greaseOutcome == Outcome::Drawn && grease > 0.0) {
+                if (splits(grease))
+                    pushBranch(kind, grease, Outcome::Missed, Outcome::Met);
+                else
+                    metGrease = rng.uniform() < grease;
+            }
+            greaseOutcome = Outcome::Drawn;
+            if (metGrease) {
                 // A rough patch: the photon meets a GGX microfacet instead of the smooth surface.
                 // Facets seen from behind (steep facets at grazing light) are left out: the
                 // photon then meets the smooth surface, a small bias towards the smooth surface.
@@ -520,6 +583,19 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
         cell = other;
     }
     h.fate = PhotonFate::EventLimit;
+    };
+
+    walk();
+    // Each branch ends in a fate of its own: all but the last are deposited there.
+    while (branchCount > 0) {
+        h.deposited[static_cast<int>(h.fate)] += weight;
+        const Branch& b = branches[--branchCount];
+        ray = b.ray, cell = b.cell, onSurface = b.onSurface, h.reflections = b.reflections, key = b.key;
+        scattered = b.scattered, firstScatter = b.firstScatter, weight = b.weight;
+        resumeKind = b.kind, dustOutcome = b.dust, greaseOutcome = b.grease;
+        connection.event = -1;
+        walk();
+    }
 }
 
 double PhotonTracer::clearTransmittance(const std::vector<glm::dvec3>& points, const std::vector<int>& surfaces,

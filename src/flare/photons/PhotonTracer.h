@@ -159,12 +159,18 @@ struct PhotonHistory {
 //    last surface and the sensor, a point drawn uniformly on the sensor is connected to it (if
 //    the last surface does not hide it), and the scattered photon's own direct hit is weighted by
 //    multiple importance sampling (power heuristic) against that connection.
+//  - With weights on, dust and grease no longer choose by roulette whether the photon meets them:
+//    the walk splits into a branch that meets them (weight × coverage), traced after the photon
+//    ends, and one that does not (weight × (1 − coverage)), so every photon crossing a dusty or
+//    greasy patch carries some of its scattered light (at most kMaxStrayBranches pending; the
+//    dust's albedo is a weight too). Each branch ends in its own fate.
 struct StrayLightSampling {
     bool weighted = false;
     bool connectSensor = false;
     double testConnectionScale = 1.0;  // a test's deliberate error (multiplies the connections)
 };
 inline constexpr double kStrayWeightFloor = 1e-3;
+inline constexpr int kMaxStrayBranches = 8;
 
 class PhotonTracer {
 public:

@@ -2,8 +2,9 @@
 // roulette at the interior finishes and the sensor, and connections to the sensor from the walls
 // of the sensor's cell, against the analog walk. Per photon, both walks give unbiased estimates of
 // the same quantities: the power arriving on the sensor (unscattered, scattered, by sensor
-// quadrant) and the power ending in each fate. Their means must agree within statistics; a
-// connection off by a factor of 2 must not.
+// quadrant) and the power ending in each fate. Their means must agree within statistics, with
+// and without dust and grease (where the walk branches); a connection off by a factor of 2 must
+// not.
 #include <array>
 #include <cmath>
 #include <string>
@@ -132,6 +133,28 @@ TEST(StrayLightSampling, WeightsAndSensorConnectionsAgreeWithTheAnalogWalk) {
         const Comparison h = compare(a, traceMoments(half, N, 13 + weighted));
         EXPECT_LT(h.largestZ, z) << (weighted ? "weights" : "connections") << ", worst: " << h.worst;
     }
+}
+
+// Dust on the front surface and grease on an inner one (each met with its coverage): the walk
+// splits there into a branch that meets them and one that does not; the estimates still agree
+// with the analog walk's, and the scattered light's variance falls.
+TEST(StrayLightSampling, DustAndGreaseBranchesAgreeWithTheAnalogWalk) {
+    const LensSystem lens = reflectiveLens();
+    std::vector<SurfaceContamination> dirt(lens.surfaceCount());
+    dirt[0].dustCoverage = 0.04;
+    dirt[0].dustAlbedo = 0.6;
+    dirt[3].greaseCoverage = 0.08;
+    dirt[3].greaseRoughness = 0.2;
+    const PhotonTracer analog(lens, greyInterior(), -1, dirt);
+    PhotonTracer sampled(lens, greyInterior(), -1, dirt);
+    sampled.setStrayLightSampling({.weighted = true, .connectSensor = true});
+    const long N = 120000;
+    const Moments a = traceMoments(analog, N, 21), b = traceMoments(sampled, N, 22);
+    const Comparison c = compare(a, b);
+    ASSERT_GE(c.compared, kArrivalTallies + 5);  // the arrivals and at least five fates (dust among them)
+    EXPECT_LT(c.largestZ, test::normalTwoSidedCritical(1e-3 / c.compared)) << "worst: " << c.worst;
+    EXPECT_GT(b.mean(kArrivalTallies + static_cast<int>(PhotonFate::AbsorbedDust)), 0.0);
+    EXPECT_LT(b.varianceOfMean(1), 0.25 * a.varianceOfMean(1));
 }
 
 // The test can fail: connections carrying twice their power (a broken MIS weight or sensor
