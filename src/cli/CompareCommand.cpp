@@ -1,5 +1,6 @@
 #include "CompareCommand.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -55,9 +56,28 @@ void printComparison(const CompareCommandOptions& o, const ImageComparison& c) {
     for (int k = 0; k < 3; ++k) line(channelKeys[k], formatMetric(c.relL2Rgb[k], kZeroChannel));
 }
 
+// A layer, or the sum of layers named "a+b+c" (e.g. the flare without the direct image:
+// ghost+higher+scatter, what a render's target error measures).
+ImageLayer readLayerSum(const std::string& path, const std::string& layers) {
+    ImageLayer sum;
+    size_t begin = 0;
+    do {
+        const size_t end = std::min(layers.find('+', begin), layers.size());
+        const ImageLayer part = readExrLayer(path, layers.substr(begin, end - begin));
+        if (begin == 0) {
+            sum = part;
+        } else {
+            for (size_t i = 0; i < sum.rgb.size(); ++i) sum.rgb[i] += part.rgb[i];
+            sum.name += "+" + part.name;
+        }
+        begin = end + 1;
+    } while (begin <= layers.size());
+    return sum;
+}
+
 void run(const CompareCommandOptions& o) {
-    const ImageLayer a = readExrLayer(o.a, o.layer);
-    const ImageLayer b = readExrLayer(o.b, o.layer);
+    const ImageLayer a = readLayerSum(o.a, o.layer);
+    const ImageLayer b = readLayerSum(o.b, o.layer);
     const ImageComparison comparison = compareImages(a, b, o.a, o.b);
     if (o.json) std::cout << comparisonJson(o, comparison).dump(2) << "\n";
     else printComparison(o, comparison);
@@ -70,7 +90,8 @@ void addCompareCommand(CLI::App& app) {
     CLI::App* compare = app.add_subcommand("compare", "error metrics of image A against a reference image B (EXR)");
     compare->add_option("A", o->a, "EXR image to assess")->required();
     compare->add_option("B", o->b, "reference EXR image, same size")->required();
-    compare->add_option("--layer", o->layer, "layer to compare in both files (default: the main RGB image)");
+    compare->add_option("--layer", o->layer, "layer to compare in both files (default: the main RGB image); layers joined by + are summed, "
+                    "e.g. ghost+higher+scatter (the flare without the direct image)");
     compare->add_flag("--json", o->json, "print one JSON object");
     compare->callback([o] { run(*o); });
 }

@@ -376,7 +376,8 @@ void addRenderCommand(CLI::App& app) {
         ->check(CLI::PositiveNumber);
     render->add_option("--smooth-neighbours", o->smoothNeighbours,
                        "the scatter layer's and the higher layer's photons are splatted by an adaptive kernel holding "
-                       "about this many photons (default 256; 0: the film's kernel; only with --kernel fixed)")
+                       "about this many times the photon's power of the earlier ones, growing as passes^(2/3) "
+                       "(default 256; 0: the film's kernel; only with --kernel fixed)")
         ->check(CLI::Range(0, 1000000));
     render->add_option("--interior-albedo", o->interiorAlbedo,
                        "diffuse albedo of the barrel, element edges and iris blades, overriding the scene's finishes")

@@ -443,7 +443,8 @@ PYBIND11_MODULE(flare, m) {
         [](const Scene& scene, std::optional<std::int64_t> photons, std::optional<double> timeS, double targetError,
            std::optional<std::uint64_t> seed, int threads, const std::string& mode, bool layers,
            std::optional<int> maxBounces, const std::string& higherOrderChoice, const std::string& kernelChoice,
-           double radiusPx, int smoothNeighbours, std::optional<double> interiorAlbedo, std::optional<bool> diffraction) {
+           double radiusPx, int smoothNeighbours, std::optional<double> interiorAlbedo, std::optional<bool> diffraction,
+           bool analogStray) {
             SceneRenderOverrides overrides;
             overrides.mode = renderMode(mode);
             overrides.seed = seed;
@@ -454,6 +455,7 @@ PYBIND11_MODULE(flare, m) {
             overrides.radiusPx = radiusPx;
             overrides.smoothNeighbours = smoothNeighbours;
             overrides.interiorAlbedo = interiorAlbedo;
+            overrides.strayLightSampling = !analogStray;
             return render(withDiffraction(scene, diffraction), RenderArguments{photons, timeS, targetError, threads},
                           overrides);
         },
@@ -462,6 +464,7 @@ PYBIND11_MODULE(flare, m) {
         py::arg("mode") = "guided", py::arg("layers") = false, py::arg("max_bounces") = py::none(),
         py::arg("higher_order") = "auto", py::arg("kernel") = "fixed", py::arg("radius_px") = 1.0,
         py::arg("smooth_neighbours") = 256, py::arg("interior_albedo") = py::none(), py::arg("diffraction") = py::none(),
+        py::arg("analog_stray") = false,
         "The physically based render, as `flare render` with the same options and defaults (it stops at the target "
         "error, time_s or photons, whichever comes first; without either limit at the scene's photon count): a dict "
         "of float32 arrays (height, width, 3) keyed by EXR layer name: '' (the sum, the starburst in place of the "

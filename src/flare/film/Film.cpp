@@ -179,7 +179,11 @@ double Film::radiusPx(int layer, const glm::dvec2& sensorMm, double power) const
             const int blockW = std::min(kCountBlockPx, settings_.widthPx - bx * kCountBlockPx);
             const int blockH = std::min(kCountBlockPx, settings_.heightPx - by * kCountBlockPx);
             const double density = amount / (blockW * blockH);
-            const double held = k.byPower ? k.neighbours * std::max(power, 0.0) : k.neighbours;
+            // By power, the neighbours also grow as passes^(2/3) (the k-nearest-neighbour rule's
+            // optimum k ∝ N^(4/(d+4)) in two dimensions): noise and blur then both fall as
+            // passes^(−1/3), where a fixed k trades every further photon for sharpness alone.
+            const double held = k.byPower ? k.neighbours * std::pow(std::max(passes_, 1), 2.0 / 3.0) * std::max(power, 0.0)
+                                          : k.neighbours;
             return std::clamp(std::sqrt(held / (std::numbers::pi * density)), 1.0, k.maxRadiusPx);
         }
     }

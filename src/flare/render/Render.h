@@ -65,9 +65,9 @@ struct RenderOptions {
     // The `scatter` layer (veiling glare, which varies slowly across the frame) and the photons
     // of the `higher` layer (the few that the guided chains leave to the unguided tracer) are
     // estimated as smooth: with the film's fixed kernel, they get an adaptive kernel (Film::
-    // setLayerKernel) that holds about this many earlier photons, at most a sixteenth of the
-    // frame's width in radius (0: the film's kernel, like the other layers). Beams are rasterised
-    // exactly whatever the kernel.
+    // setLayerKernel, by power) that holds about this many times the photon's own power of the
+    // earlier photons, times passes^(2/3), at most a sixteenth of the frame's width in radius (0:
+    // the film's kernel, like the other layers). Beams are rasterised exactly whatever the kernel.
     int smoothNeighbours = 256;
     double directShare = 0.1;
     int batchPhotons = 1024;

@@ -105,6 +105,16 @@ TEST(Cli, PreviewOfTheDefaultSceneWritesExrAndPng) {
     ASSERT_EQ(r.exitCode, 0) << r.out;
     EXPECT_TRUE(std::ifstream(exr).good());
     EXPECT_TRUE(std::ifstream(png).good());
+    // `compare` sums layers joined by +: the image against itself is 0 off, a missing layer is
+    // an input error.
+    const CliRun same = run("compare " + exr + " " + exr + " --layer ghost+direct --json");
+    ASSERT_EQ(same.exitCode, 0) << same.out;
+    const nlohmann::json j = nlohmann::json::parse(same.out.substr(same.out.find('{')));
+    EXPECT_EQ(j["layer"], "ghost+direct");
+    EXPECT_EQ(j["rel_l2"], 0.0);
+    const CliRun missing = run("compare " + exr + " " + exr + " --layer ghost+nosuch");
+    EXPECT_EQ(missing.exitCode, 2);
+    EXPECT_NE(missing.out.find("nosuch"), std::string::npos) << missing.out;
     std::ofstream(scene) << R"({"lens": "double-gauss-50mm", "lights": [{"type": "directional", "field_deg": [11, 8], "angular_diameter_deg": -1}]})";
     const CliRun bad = run("preview " + scene + " -o " + exr);
     EXPECT_EQ(bad.exitCode, 2);
