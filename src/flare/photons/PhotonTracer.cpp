@@ -301,288 +301,288 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
     };
 
     auto walk = [&] {
-    while (h.events < kMaxPhotonEvents) {
-        Kind kind = Kind::None;
-        double best = kInf;
-        glm::dvec3 wallNormal(0.0);
+        while (h.events < kMaxPhotonEvents) {
+            Kind kind = Kind::None;
+            double best = kInf;
+            glm::dvec3 wallNormal(0.0);
 
-        if (resumeKind != Kind::None) {
-            kind = resumeKind, best = 0.0;
-            resumeKind = Kind::None;
-        } else {
-        auto trySurface = [&](int k, Kind which) {
-            // A ray near the wall can cross the surface's continuation beyond its rim (where the
-            // surface does not exist) before crossing the surface itself: look past such hits.
-            const Surface& surface = lens.surface(k);
-            double tMin = k == onSurface ? kLeaveSurfaceMm : -kOnBoundaryMm;
-            for (int crossing = 0; crossing < 3; ++crossing) {
-                const SurfaceHit hit = intersect(surface, ray, tMin);
-                if (hit.status != HitStatus::Hit || hit.tMm >= best) return;
-                const glm::dvec3 p = ray.at(hit.tMm);
-                // A hit where the photon stands (kOnBoundaryMm) counts only if it leaves the cell:
-                // forwards through the surface ahead, backwards through the one behind.
-                const bool leaves = hit.tMm >= kOnBoundaryMm ||
-                                    (glm::dot(surface.normalAt(p), ray.direction) > 0.0) == (which == Kind::Ahead);
-                if (leaves && p.x * p.x + p.y * p.y <= rims_[k].extentMm * rims_[k].extentMm * (1.0 + kSeamTolerance)) {
-                    best = std::max(hit.tMm, 0.0);
-                    kind = which;
+            if (resumeKind != Kind::None) {
+                kind = resumeKind, best = 0.0;
+                resumeKind = Kind::None;
+            } else {
+                auto trySurface = [&](int k, Kind which) {
+                    // A ray near the wall can cross the surface's continuation beyond its rim (where the
+                    // surface does not exist) before crossing the surface itself: look past such hits.
+                    const Surface& surface = lens.surface(k);
+                    double tMin = k == onSurface ? kLeaveSurfaceMm : -kOnBoundaryMm;
+                    for (int crossing = 0; crossing < 3; ++crossing) {
+                        const SurfaceHit hit = intersect(surface, ray, tMin);
+                        if (hit.status != HitStatus::Hit || hit.tMm >= best) return;
+                        const glm::dvec3 p = ray.at(hit.tMm);
+                        // A hit where the photon stands (kOnBoundaryMm) counts only if it leaves the cell:
+                        // forwards through the surface ahead, backwards through the one behind.
+                        const bool leaves = hit.tMm >= kOnBoundaryMm ||
+                                            (glm::dot(surface.normalAt(p), ray.direction) > 0.0) == (which == Kind::Ahead);
+                        if (leaves && p.x * p.x + p.y * p.y <= rims_[k].extentMm * rims_[k].extentMm * (1.0 + kSeamTolerance)) {
+                            best = std::max(hit.tMm, 0.0);
+                            kind = which;
+                            return;
+                        }
+                        tMin = hit.tMm + kLeaveSurfaceMm;
+                    }
+                };
+                if (cell > 0) trySurface(cell - 1, Kind::Behind);
+                if (cell < n) trySurface(cell, Kind::Ahead);
+                if (cell == n && ray.direction.z > 0.0) {
+                    const double t = (lens.sensorZMm() - ray.originMm.z) / ray.direction.z;
+                    if (t >= -kOnBoundaryMm && t < best) best = std::max(t, 0.0), kind = Kind::SensorPlane;
+                }
+                if (cell > 0) {
+                    const double wall = cells_[cell].wallRadiusMm;
+                    const double tCylinder = cylinderExit(ray, wall);
+                    if (tCylinder < best) {
+                        best = tCylinder, kind = Kind::Wall;
+                        const glm::dvec3 p = ray.at(tCylinder);
+                        wallNormal = glm::normalize(glm::dvec3(-p.x, -p.y, 0.0));
+                    }
+                    // Annuli between a surface's rim and the wall, at the rim's z.
+                    auto tryAnnulus = [&](int k, double facing) {
+                        if (ray.direction.z * facing >= 0.0) return;  // moving away from it
+                        const double t = (rims_[k].zMm - ray.originMm.z) / ray.direction.z;
+                        if (t < -kOnBoundaryMm || t >= best) return;
+                        const glm::dvec3 p = ray.at(t);
+                        const double r2 = p.x * p.x + p.y * p.y;
+                        if (r2 < rims_[k].extentMm * rims_[k].extentMm * (1.0 - kSeamTolerance) ||
+                            r2 > wall * wall * (1.0 + kSeamTolerance))
+                            return;
+                        best = std::max(t, 0.0), kind = Kind::Wall;
+                        wallNormal = glm::dvec3(0.0, 0.0, facing);
+                    };
+                    tryAnnulus(cell - 1, 1.0);            // behind the photon, facing +z
+                    if (cell < n) tryAnnulus(cell, -1.0);  // ahead, facing −z
+                }
+
+                if (kind == Kind::None) {
+                    h.fate = cell == 0 ? PhotonFate::Escaped : PhotonFate::Lost;
                     return;
                 }
-                tMin = hit.tMm + kLeaveSurfaceMm;
+                if (const int m = mediumOfCell_[cell]; m >= 0) {
+                    // Delta tracking to the boundary: through the grid's coarse majorants (MajorantGrid),
+                    // or exactly in a homogeneous medium, where σt itself is the rate.
+                    const BulkMedium& medium = media_[m];
+                    const double sigmaS = scatteringPerMm(medium, indices.wavelengthNm);
+                    const double sigmaT = sigmaS + medium.absorptionPerMm;
+                    const glm::dvec3 frontVertex(0.0, 0.0, lens.surface(cell - 1).vertexZMm);
+                    const double t = medium.grid ? sampleFreeFlight(majorants_[m], *scratch.samplers[m], sigmaT,
+                                                                    ray.originMm - frontVertex, ray.direction, best, rng,
+                                                                    h.nullCollisions)
+                                     : sigmaT > 0.0 ? -std::log(1.0 - rng.uniform()) / sigmaT
+                                                    : kInf;
+                    if (t < best) {
+                        ++h.realCollisions;
+                        ++h.events;
+                        ray.originMm = ray.at(t);
+                        onSurface = -1;
+                        if (rng.uniform() * sigmaT >= sigmaS) {
+                            h.fate = PhotonFate::AbsorbedBulk;
+                            return;
+                        }
+                        const double u1 = rng.uniform(), u2 = rng.uniform();
+                        ray.direction = sampleHenyeyGreenstein(ray.direction, medium.g, u1, u2);
+                        markScattered(ScatterSource::Bulk);
+                        continue;
+                    }
+                }
             }
-        };
-        if (cell > 0) trySurface(cell - 1, Kind::Behind);
-        if (cell < n) trySurface(cell, Kind::Ahead);
-        if (cell == n && ray.direction.z > 0.0) {
-            const double t = (lens.sensorZMm() - ray.originMm.z) / ray.direction.z;
-            if (t >= -kOnBoundaryMm && t < best) best = std::max(t, 0.0), kind = Kind::SensorPlane;
-        }
-        if (cell > 0) {
-            const double wall = cells_[cell].wallRadiusMm;
-            const double tCylinder = cylinderExit(ray, wall);
-            if (tCylinder < best) {
-                best = tCylinder, kind = Kind::Wall;
-                const glm::dvec3 p = ray.at(tCylinder);
-                wallNormal = glm::normalize(glm::dvec3(-p.x, -p.y, 0.0));
-            }
-            // Annuli between a surface's rim and the wall, at the rim's z.
-            auto tryAnnulus = [&](int k, double facing) {
-                if (ray.direction.z * facing >= 0.0) return;  // moving away from it
-                const double t = (rims_[k].zMm - ray.originMm.z) / ray.direction.z;
-                if (t < -kOnBoundaryMm || t >= best) return;
-                const glm::dvec3 p = ray.at(t);
-                const double r2 = p.x * p.x + p.y * p.y;
-                if (r2 < rims_[k].extentMm * rims_[k].extentMm * (1.0 - kSeamTolerance) ||
-                    r2 > wall * wall * (1.0 + kSeamTolerance))
-                    return;
-                best = std::max(t, 0.0), kind = Kind::Wall;
-                wallNormal = glm::dvec3(0.0, 0.0, facing);
-            };
-            tryAnnulus(cell - 1, 1.0);            // behind the photon, facing +z
-            if (cell < n) tryAnnulus(cell, -1.0);  // ahead, facing −z
-        }
+            ++h.events;
+            const glm::dvec3 p = ray.at(best);
+            ray.originMm = p;
+            onSurface = -1;
 
-        if (kind == Kind::None) {
-            h.fate = cell == 0 ? PhotonFate::Escaped : PhotonFate::Lost;
-            return;
-        }
-        if (const int m = mediumOfCell_[cell]; m >= 0) {
-            // Delta tracking to the boundary: through the grid's coarse majorants (MajorantGrid),
-            // or exactly in a homogeneous medium, where σt itself is the rate.
-            const BulkMedium& medium = media_[m];
-            const double sigmaS = scatteringPerMm(medium, indices.wavelengthNm);
-            const double sigmaT = sigmaS + medium.absorptionPerMm;
-            const glm::dvec3 frontVertex(0.0, 0.0, lens.surface(cell - 1).vertexZMm);
-            const double t = medium.grid ? sampleFreeFlight(majorants_[m], *scratch.samplers[m], sigmaT,
-                                                            ray.originMm - frontVertex, ray.direction, best, rng,
-                                                            h.nullCollisions)
-                             : sigmaT > 0.0 ? -std::log(1.0 - rng.uniform()) / sigmaT
-                                            : kInf;
-            if (t < best) {
-                ++h.realCollisions;
-                ++h.events;
-                ray.originMm = ray.at(t);
-                onSurface = -1;
-                if (rng.uniform() * sigmaT >= sigmaS) {
-                    h.fate = PhotonFate::AbsorbedBulk;
+            if (kind == Kind::Wall) {
+                const bool edge = cells_[cell].glass;
+                const double diffuse = edge ? materials_.edgeAlbedo : materials_.housingAlbedo;
+                const double glossy = edge ? materials_.edgeGlossy : materials_.housingGlossy;
+                const PhotonFate absorbed = edge ? PhotonFate::AbsorbedEdge : PhotonFate::AbsorbedHousing;
+                if (connectSensor && cell == n && diffuse + glossy > 0.0 && !connectToSensor(p, wallNormal, diffuse, glossy)) {
+                    h.fate = PhotonFate::EventLimit;
                     return;
                 }
-                const double u1 = rng.uniform(), u2 = rng.uniform();
-                ray.direction = sampleHenyeyGreenstein(ray.direction, medium.g, u1, u2);
-                markScattered(ScatterSource::Bulk);
+                if (!scatterOff(diffuse, glossy, wallNormal, absorbed)) {
+                    h.fate = absorbed;
+                    return;
+                }
                 continue;
             }
-        }
-        }
-        ++h.events;
-        const glm::dvec3 p = ray.at(best);
-        ray.originMm = p;
-        onSurface = -1;
 
-        if (kind == Kind::Wall) {
-            const bool edge = cells_[cell].glass;
-            const double diffuse = edge ? materials_.edgeAlbedo : materials_.housingAlbedo;
-            const double glossy = edge ? materials_.edgeGlossy : materials_.housingGlossy;
-            const PhotonFate absorbed = edge ? PhotonFate::AbsorbedEdge : PhotonFate::AbsorbedHousing;
-            if (connectSensor && cell == n && diffuse + glossy > 0.0 && !connectToSensor(p, wallNormal, diffuse, glossy)) {
-                h.fate = PhotonFate::EventLimit;
-                return;
+            if (kind == Kind::SensorPlane) {
+                const bool onSensor = std::abs(p.x) <= 0.5 * lens.sensor().widthMm && std::abs(p.y) <= 0.5 * lens.sensor().heightMm;
+                if (!onSensor) {  // the camera body around the sensor
+                    if (!scatterOff(materials_.housingAlbedo, materials_.housingGlossy, {0.0, 0.0, -1.0},
+                                    PhotonFate::AbsorbedHousing)) {
+                        h.fate = PhotonFate::AbsorbedHousing;
+                        return;
+                    }
+                    continue;
+                }
+                if (h.arrivalCount == kMaxSensorArrivals) {
+                    h.fate = PhotonFate::EventLimit;
+                    return;
+                }
+                double mis = 1.0;
+                if (connection.event == h.events - 1) {  // straight from a bounce that was connected
+                    const double distance2 = glm::dot(p - connection.pointMm, p - connection.pointMm);
+                    const double sensorPdf = distance2 / (sensorAreaMm2 * ray.direction.z);
+                    const double lobePdf = connection.lobePdf(ray.direction, materials_.glossExponent);
+                    mis = lobePdf * lobePdf / (lobePdf * lobePdf + sensorPdf * sensorPdf);
+                }
+                h.arrivals[h.arrivalCount++] = {{p.x, p.y}, weight * mis, key, scattered, firstScatter};
+                if (weighted() && sensor.reflectance > 0.0) {
+                    deposit(PhotonFate::AbsorbedSensor, weight * (1.0 - sensor.reflectance));
+                    weight *= sensor.reflectance;
+                } else if (rng.uniform() >= sensor.reflectance) {
+                    h.fate = PhotonFate::AbsorbedSensor;
+                    return;
+                }
+                if (!addReflection(n)) {
+                    h.fate = PhotonFate::BounceLimit;
+                    return;
+                }
+                ray.direction.z = -ray.direction.z;  // specular off the sensor's cover
+                continue;
             }
-            if (!scatterOff(diffuse, glossy, wallNormal, absorbed)) {
-                h.fate = absorbed;
-                return;
-            }
-            continue;
-        }
 
-        if (kind == Kind::SensorPlane) {
-            const bool onSensor = std::abs(p.x) <= 0.5 * lens.sensor().widthMm && std::abs(p.y) <= 0.5 * lens.sensor().heightMm;
-            if (!onSensor) {  // the camera body around the sensor
-                if (!scatterOff(materials_.housingAlbedo, materials_.housingGlossy, {0.0, 0.0, -1.0},
-                                PhotonFate::AbsorbedHousing)) {
+            const bool forward = kind == Kind::Ahead;
+            const int k = forward ? cell : cell - 1;
+            const int other = forward ? cell + 1 : cell - 1;
+            const Surface& surface = lens.surface(k);
+            onSurface = k;
+            const glm::dvec3 towardsPhoton(0.0, 0.0, forward ? -1.0 : 1.0);
+
+            if (surface.isStop) {
+                if (lens.iris().contains(p.x, p.y)) {
+                    cell = other;
+                    continue;
+                }
+                if (!scatterOff(materials_.irisAlbedo, materials_.irisGlossy, towardsPhoton, PhotonFate::AbsorbedIris)) {
+                    h.fate = PhotonFate::AbsorbedIris;
+                    return;
+                }
+                continue;
+            }
+            if (p.x * p.x + p.y * p.y > surface.semiApertureMm * surface.semiApertureMm) {
+                // Outside the clear aperture (within the seam tolerance of the rim): the retaining ring.
+                glm::dvec3 normal = surface.normalAt(p);
+                if (glm::dot(normal, ray.direction) > 0.0) normal = -normal;
+                if (!scatterOff(materials_.housingAlbedo, materials_.housingGlossy, normal, PhotonFate::AbsorbedHousing)) {
                     h.fate = PhotonFate::AbsorbedHousing;
                     return;
                 }
                 continue;
             }
-            if (h.arrivalCount == kMaxSensorArrivals) {
-                h.fate = PhotonFate::EventLimit;
-                return;
-            }
-            double mis = 1.0;
-            if (connection.event == h.events - 1) {  // straight from a bounce that was connected
-                const double distance2 = glm::dot(p - connection.pointMm, p - connection.pointMm);
-                const double sensorPdf = distance2 / (sensorAreaMm2 * ray.direction.z);
-                const double lobePdf = connection.lobePdf(ray.direction, materials_.glossExponent);
-                mis = lobePdf * lobePdf / (lobePdf * lobePdf + sensorPdf * sensorPdf);
-            }
-            h.arrivals[h.arrivalCount++] = {{p.x, p.y}, weight * mis, key, scattered, firstScatter};
-            if (weighted() && sensor.reflectance > 0.0) {
-                deposit(PhotonFate::AbsorbedSensor, weight * (1.0 - sensor.reflectance));
-                weight *= sensor.reflectance;
-            } else if (rng.uniform() >= sensor.reflectance) {
-                h.fate = PhotonFate::AbsorbedSensor;
-                return;
-            }
-            if (!addReflection(n)) {
-                h.fate = PhotonFate::BounceLimit;
-                return;
-            }
-            ray.direction.z = -ray.direction.z;  // specular off the sensor's cover
-            continue;
-        }
 
-        const bool forward = kind == Kind::Ahead;
-        const int k = forward ? cell : cell - 1;
-        const int other = forward ? cell + 1 : cell - 1;
-        const Surface& surface = lens.surface(k);
-        onSurface = k;
-        const glm::dvec3 towardsPhoton(0.0, 0.0, forward ? -1.0 : 1.0);
-
-        if (surface.isStop) {
-            if (lens.iris().contains(p.x, p.y)) {
+            const double n1 = indices.n[cell], n2 = indices.n[other];
+            if (n1 == n2) {  // a surface between equal media does not act on the light
+                if (k == 0 && forward) h.entered = true;
                 cell = other;
                 continue;
             }
-            if (!scatterOff(materials_.irisAlbedo, materials_.irisGlossy, towardsPhoton, PhotonFate::AbsorbedIris)) {
-                h.fate = PhotonFate::AbsorbedIris;
-                return;
-            }
-            continue;
-        }
-        if (p.x * p.x + p.y * p.y > surface.semiApertureMm * surface.semiApertureMm) {
-            // Outside the clear aperture (within the seam tolerance of the rim): the retaining ring.
             glm::dvec3 normal = surface.normalAt(p);
-            if (glm::dot(normal, ray.direction) > 0.0) normal = -normal;
-            if (!scatterOff(materials_.housingAlbedo, materials_.housingGlossy, normal, PhotonFate::AbsorbedHousing)) {
-                h.fate = PhotonFate::AbsorbedHousing;
-                return;
+            glm::dvec3 roughTowards(0.0);  // set when a grease facet replaces the surface normal
+            if (hasContamination_ && contamination_[k].any()) {
+                const SurfaceContamination& c = contamination_[k];
+                // Zero local coverage draws no random number: a clean patch traces as a clean lens.
+                // A resumed branch has its outcome forced; stray light sampling splits the walk.
+                const double dust = c.dustCoverageAt(p.x, p.y);
+                bool metDust = dustOutcome == Outcome::Met;
+                if (dustOutcome == Outcome::Drawn && dust > 0.0) {
+                    if (splits(dust))
+                        pushBranch(kind, dust, Outcome::Met, Outcome::Drawn);
+                    else
+                        metDust = rng.uniform() < dust;
+                }
+                dustOutcome = Outcome::Drawn;
+                if (metDust) {
+                    if (weighted()) {
+                        deposit(PhotonFate::AbsorbedDust, weight * (1.0 - c.dustAlbedo));
+                        weight *= c.dustAlbedo;
+                    } else if (rng.uniform() >= c.dustAlbedo) {
+                        h.fate = PhotonFate::AbsorbedDust;
+                        return;
+                    }
+                    const double u1 = rng.uniform(), u2 = rng.uniform(), u3 = rng.uniform(), u4 = rng.uniform();
+                    if (u1 < 0.5) {
+                        // Diffraction by a particle of diameter d: a forward lobe ~0.42 λ/d wide
+                        // (the Gaussian fit of the Airy core), d log-normal about the median.
+                        const double gauss = std::sqrt(-2.0 * std::log(1.0 - u2)) * std::cos(2.0 * std::numbers::pi * u3);
+                        const double diameterNm = 1e3 * c.dustDiameterUm * std::exp(c.dustDiameterSigma * gauss);
+                        const double sigmaRad = 0.42 * indices.wavelengthNm / diameterNm;
+                        const double theta = std::min(sigmaRad * std::sqrt(-2.0 * std::log(1.0 - u4)), std::numbers::pi);
+                        ray.direction = directionAround(ray.direction, std::cos(theta), 2.0 * std::numbers::pi * rng.uniform());
+                    } else {
+                        ray.direction = sampleHenyeyGreenstein(ray.direction, 0.6, u2, u3);
+                    }
+                    markScattered(ScatterSource::Dust);
+                    // The particle sits on the surface: the scattered light meets the interface now
+                    // if it still heads into it, else it leaves back into this cell.
+                    if ((glm::dot(normal, ray.direction) > 0.0) != forward) {
+                        greaseOutcome = Outcome::Drawn;
+                        continue;
+                    }
+                }
+                const double grease = c.greaseCoverageAt(p.x, p.y);
+                bool metGrease = greaseOutcome == Outcome::Met;
+                if (greaseOutcome == Outcome::Drawn && grease > 0.0) {
+                    if (splits(grease))
+                        pushBranch(kind, grease, Outcome::Missed, Outcome::Met);
+                    else
+                        metGrease = rng.uniform() < grease;
+                }
+                greaseOutcome = Outcome::Drawn;
+                if (metGrease) {
+                    // A rough patch: the photon meets a GGX microfacet instead of the smooth surface.
+                    // Facets seen from behind (steep facets at grazing light) are left out: the
+                    // photon then meets the smooth surface, a small bias towards the smooth surface.
+                    const glm::dvec3 towards = glm::dot(normal, ray.direction) < 0.0 ? normal : -normal;
+                    const double u1 = rng.uniform(), u2 = rng.uniform();
+                    const glm::dvec3 facet = sampleGgxNormal(towards, c.greaseRoughness, u1, u2);
+                    if (glm::dot(facet, ray.direction) < 0.0) {
+                        normal = facet;
+                        roughTowards = towards;
+                        markScattered(ScatterSource::Grease);
+                    }
+                }
             }
-            continue;
-        }
-
-        const double n1 = indices.n[cell], n2 = indices.n[other];
-        if (n1 == n2) {  // a surface between equal media does not act on the light
-            if (k == 0 && forward) h.entered = true;
-            cell = other;
-            continue;
-        }
-        glm::dvec3 normal = surface.normalAt(p);
-        glm::dvec3 roughTowards(0.0);  // set when a grease facet replaces the surface normal
-        if (hasContamination_ && contamination_[k].any()) {
-            const SurfaceContamination& c = contamination_[k];
-            // Zero local coverage draws no random number: a clean patch traces as a clean lens.
-            // A resumed branch has its outcome forced; stray light sampling splits the walk.
-            const double dust = c.dustCoverageAt(p.x, p.y);
-            bool metDust = dustOutcome == Outcome::Met;
-            if (dustOutcome == Outcome::Drawn && dust > 0.0) {
-                if (splits(dust))
-                    pushBranch(kind, dust, Outcome::Met, Outcome::Drawn);
-                else
-                    metDust = rng.uniform() < dust;
+            const double cosThetaI = std::min(1.0, std::abs(glm::dot(normal, ray.direction)));
+            double reflectance = 1.0;
+            if (reflectance_) {
+                reflectance = reflectance_->reflectance(k, forward ? 1 : -1, indices.wavelengthNm, indices, cosThetaI);
+            } else {
+                const FresnelTerms response = interfaceResponse(lens, indices, k, forward ? 1 : -1, cosThetaI);
+                reflectance = response.totalInternalReflection ? 1.0 : response.reflectance();
             }
-            dustOutcome = Outcome::Drawn;
-            if (metDust) {
-                if (weighted()) {
-                    deposit(PhotonFate::AbsorbedDust, weight * (1.0 - c.dustAlbedo));
-                    weight *= c.dustAlbedo;
-                } else if (rng.uniform() >= c.dustAlbedo) {
-                    h.fate = PhotonFate::AbsorbedDust;
+            glm::dvec3 refracted;
+            if (rng.uniform() < reflectance || !refract(ray.direction, normal, n1, n2, &refracted)) {
+                if (!addReflection(k)) {
+                    h.fate = PhotonFate::BounceLimit;
                     return;
                 }
-                const double u1 = rng.uniform(), u2 = rng.uniform(), u3 = rng.uniform(), u4 = rng.uniform();
-                if (u1 < 0.5) {
-                    // Diffraction by a particle of diameter d: a forward lobe ~0.42 λ/d wide
-                    // (the Gaussian fit of the Airy core), d log-normal about the median.
-                    const double gauss = std::sqrt(-2.0 * std::log(1.0 - u2)) * std::cos(2.0 * std::numbers::pi * u3);
-                    const double diameterNm = 1e3 * c.dustDiameterUm * std::exp(c.dustDiameterSigma * gauss);
-                    const double sigmaRad = 0.42 * indices.wavelengthNm / diameterNm;
-                    const double theta = std::min(sigmaRad * std::sqrt(-2.0 * std::log(1.0 - u4)), std::numbers::pi);
-                    ray.direction = directionAround(ray.direction, std::cos(theta), 2.0 * std::numbers::pi * rng.uniform());
-                } else {
-                    ray.direction = sampleHenyeyGreenstein(ray.direction, 0.6, u2, u3);
+                ray.direction = glm::normalize(reflect(ray.direction, normal));
+                if (glm::dot(ray.direction, roughTowards) < 0.0) {  // a facet sent it into the surface
+                    h.fate = PhotonFate::AbsorbedGrease;
+                    return;
                 }
-                markScattered(ScatterSource::Dust);
-                // The particle sits on the surface: the scattered light meets the interface now
-                // if it still heads into it, else it leaves back into this cell.
-                if ((glm::dot(normal, ray.direction) > 0.0) != forward) {
-                    greaseOutcome = Outcome::Drawn;
-                    continue;
-                }
+                continue;
             }
-            const double grease = c.greaseCoverageAt(p.x, p.y);
-            bool metGrease = greaseOutcome == Outcome::Met;
-            if (greaseOutcome == Outcome::Drawn && grease > 0.0) {
-                if (splits(grease))
-                    pushBranch(kind, grease, Outcome::Missed, Outcome::Met);
-                else
-                    metGrease = rng.uniform() < grease;
-            }
-            greaseOutcome = Outcome::Drawn;
-            if (metGrease) {
-                // A rough patch: the photon meets a GGX microfacet instead of the smooth surface.
-                // Facets seen from behind (steep facets at grazing light) are left out: the
-                // photon then meets the smooth surface, a small bias towards the smooth surface.
-                const glm::dvec3 towards = glm::dot(normal, ray.direction) < 0.0 ? normal : -normal;
-                const double u1 = rng.uniform(), u2 = rng.uniform();
-                const glm::dvec3 facet = sampleGgxNormal(towards, c.greaseRoughness, u1, u2);
-                if (glm::dot(facet, ray.direction) < 0.0) {
-                    normal = facet;
-                    roughTowards = towards;
-                    markScattered(ScatterSource::Grease);
-                }
-            }
-        }
-        const double cosThetaI = std::min(1.0, std::abs(glm::dot(normal, ray.direction)));
-        double reflectance = 1.0;
-        if (reflectance_) {
-            reflectance = reflectance_->reflectance(k, forward ? 1 : -1, indices.wavelengthNm, indices, cosThetaI);
-        } else {
-            const FresnelTerms response = interfaceResponse(lens, indices, k, forward ? 1 : -1, cosThetaI);
-            reflectance = response.totalInternalReflection ? 1.0 : response.reflectance();
-        }
-        glm::dvec3 refracted;
-        if (rng.uniform() < reflectance || !refract(ray.direction, normal, n1, n2, &refracted)) {
-            if (!addReflection(k)) {
-                h.fate = PhotonFate::BounceLimit;
-                return;
-            }
-            ray.direction = glm::normalize(reflect(ray.direction, normal));
-            if (glm::dot(ray.direction, roughTowards) < 0.0) {  // a facet sent it into the surface
+            if (glm::dot(refracted, roughTowards) > 0.0) {  // refracted back out of the facet's surface
                 h.fate = PhotonFate::AbsorbedGrease;
                 return;
             }
-            continue;
+            ray.direction = refracted;
+            if (k == 0 && forward) h.entered = true;
+            cell = other;
         }
-        if (glm::dot(refracted, roughTowards) > 0.0) {  // refracted back out of the facet's surface
-            h.fate = PhotonFate::AbsorbedGrease;
-            return;
-        }
-        ray.direction = refracted;
-        if (k == 0 && forward) h.entered = true;
-        cell = other;
-    }
-    h.fate = PhotonFate::EventLimit;
+        h.fate = PhotonFate::EventLimit;
     };
 
     walk();
