@@ -59,6 +59,14 @@ double paintLobeDensity(const glm::dvec3& n, const glm::dvec3& mirror, double di
     return density;
 }
 
+double flatAreaDirectionPdf(const glm::dvec3& x, const glm::dvec3& y, double areaMm2) {
+    const glm::dvec3 d = y - x;
+    const double distance2 = glm::dot(d, d);
+    if (!(d.z > 0.0) || !(areaMm2 > 0.0)) return 0.0;
+    const double cosTheta = d.z / std::sqrt(distance2);
+    return distance2 / (areaMm2 * cosTheta);
+}
+
 glm::dvec3 sampleGgxNormal(const glm::dvec3& n, double alpha, double u1, double u2) {
     // tan²θ = α² u / (1 − u) inverts the CDF of D(m)(m·n) for GGX.
     const double tan2 = alpha * alpha * u1 / std::max(1.0 - u1, 1e-300);

@@ -27,6 +27,11 @@ glm::dvec3 samplePowerCosine(const glm::dvec3& axis, double exponent, double u1,
 double paintLobeDensity(const glm::dvec3& n, const glm::dvec3& mirror, double diffuse, double glossy,
                         double exponent, const glm::dvec3& w);
 
+// The density per steradian, seen from x, of the direction towards a point y drawn uniformly on a
+// flat area of `areaMm2` facing +z (the sensor, for the tracer's connections): distance² / (area ·
+// cos θ), θ between the direction and +z; 0 if y is not ahead of x in z.
+double flatAreaDirectionPdf(const glm::dvec3& x, const glm::dvec3& y, double areaMm2);
+
 // A microfacet normal drawn from the GGX (Trowbridge–Reitz) distribution of roughness alpha about
 // the macro normal n, with density D(m)·(m·n).
 glm::dvec3 sampleGgxNormal(const glm::dvec3& n, double alpha, double u1, double u2);

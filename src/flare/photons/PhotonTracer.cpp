@@ -256,7 +256,7 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
             tMin = hit.tMm + kLeaveSurfaceMm;
         }
         if (h.arrivalCount == kMaxSensorArrivals) return false;
-        const double sensorPdf = distance2 / (sensorAreaMm2 * w.z);
+        const double sensorPdf = flatAreaDirectionPdf(x, y, sensorAreaMm2);
         const double lobePdf = lobe / connection.lobeShare;
         const double mis = sensorPdf * sensorPdf / (sensorPdf * sensorPdf + lobePdf * lobePdf);
         h.arrivals[h.arrivalCount++] = {{y.x, y.y},
@@ -431,8 +431,7 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
                 }
                 double mis = 1.0;
                 if (connection.event == h.events - 1) {  // straight from a bounce that was connected
-                    const double distance2 = glm::dot(p - connection.pointMm, p - connection.pointMm);
-                    const double sensorPdf = distance2 / (sensorAreaMm2 * ray.direction.z);
+                    const double sensorPdf = flatAreaDirectionPdf(connection.pointMm, p, sensorAreaMm2);
                     const double lobePdf = connection.lobePdf(ray.direction, materials_.glossExponent);
                     mis = lobePdf * lobePdf / (lobePdf * lobePdf + sensorPdf * sensorPdf);
                 }

@@ -7,6 +7,7 @@
 // not.
 #include <array>
 #include <cmath>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,7 @@
 
 #include "TestUtil.h"
 #include "flare/optics/LensFile.h"
+#include "flare/photons/Phase.h"
 #include "flare/photons/PhotonTracer.h"
 
 namespace flare {
@@ -155,6 +157,65 @@ TEST(StrayLightSampling, DustAndGreaseBranchesAgreeWithTheAnalogWalk) {
     EXPECT_LT(c.largestZ, test::normalTwoSidedCritical(1e-3 / c.compared)) << "worst: " << c.worst;
     EXPECT_GT(b.mean(kArrivalTallies + static_cast<int>(PhotonFate::AbsorbedDust)), 0.0);
     EXPECT_LT(b.varianceOfMean(1), 0.25 * a.varianceOfMean(1));
+}
+
+// The connection's sampler: a point uniform on the sensor, whose direction from the bounce has
+// the density flatAreaDirectionPdf per steradian (the MIS weights use it). Its direction
+// histogram (cos θ from the axis × azimuth about the direction to the sensor's centre) against
+// that density integrated over the same bins by an independent estimate: directions uniform in a
+// cone around the sensor, weighted by the density where they hit it. Bin by bin, a two-sample
+// z-test (Bonferroni); the density also integrates to 1.
+TEST(StrayLightSampling, SensorConnectionDirectionsFollowTheirDensity) {
+    const double width = 36.0, height = 24.0, area = width * height, sensorZ = 67.0;
+    const glm::dvec3 x(21.0, -6.0, 31.0);  // on a barrel of radius ≈ 22 mm, 36 mm before the sensor
+    const glm::dvec3 axis = glm::normalize(glm::dvec3(0.0, 0.0, sensorZ) - x);
+    glm::dvec3 t1, t2;
+    orthonormalFrame(axis, &t1, &t2);
+    constexpr int kCos = 8, kPhi = 4, kBins = kCos * kPhi;
+    double cosLow = 1.0;  // every direction to the sensor lies within this cone about the axis
+    for (const double cx : {-0.5, 0.5})
+        for (const double cy : {-0.5, 0.5})
+            cosLow = std::min(cosLow, glm::dot(glm::normalize(glm::dvec3(cx * width, cy * height, sensorZ) - x), axis));
+    cosLow -= 0.005;
+    auto bin = [&](const glm::dvec3& w) {
+        const double c = glm::dot(w, axis);
+        if (c < cosLow) return -1;
+        const double phi = std::atan2(glm::dot(w, t2), glm::dot(w, t1)) + std::numbers::pi;
+        return std::min(kCos - 1, static_cast<int>((1.0 - c) / (1.0 - cosLow) * kCos)) * kPhi +
+               std::min(kPhi - 1, static_cast<int>(phi / (2.0 * std::numbers::pi) * kPhi));
+    };
+    Rng rng(17, 0);
+    const long N = 400000, M = 2000000;
+    std::array<double, kBins> sampled{}, cone{}, coneSquares{};
+    for (long i = 0; i < N; ++i) {
+        const glm::dvec3 y((rng.uniform() - 0.5) * width, (rng.uniform() - 0.5) * height, sensorZ);
+        const int b = bin(glm::normalize(y - x));
+        ASSERT_GE(b, 0);
+        sampled[b] += 1.0;
+    }
+    const double conePdf = 1.0 / (2.0 * std::numbers::pi * (1.0 - cosLow));
+    double total = 0.0;
+    for (long i = 0; i < M; ++i) {
+        const glm::dvec3 w = directionAround(axis, 1.0 - rng.uniform() * (1.0 - cosLow), 2.0 * std::numbers::pi * rng.uniform());
+        if (!(w.z > 0.0)) continue;
+        const glm::dvec3 y = x + w * ((sensorZ - x.z) / w.z);
+        if (std::abs(y.x) > 0.5 * width || std::abs(y.y) > 0.5 * height) continue;
+        const double value = flatAreaDirectionPdf(x, y, area) / conePdf;
+        const int b = bin(w);
+        cone[b] += value, coneSquares[b] += value * value;
+        total += value;
+    }
+    EXPECT_NEAR(total / M, 1.0, 4.0 * 0.002);  // its own spread is ≈ 0.1 %
+    const double z = test::normalTwoSidedCritical(1e-3 / kBins);
+    int filled = 0;
+    for (int b = 0; b < kBins; ++b) {
+        const double q = sampled[b] / N, s = cone[b] / M;
+        const double variance = q * (1.0 - q) / N + std::max(0.0, coneSquares[b] / M - s * s) / M;
+        if (variance == 0.0) continue;
+        ++filled;
+        EXPECT_LT(std::abs(q - s), z * std::sqrt(variance)) << "bin " << b << ": sampled " << q << ", density " << s;
+    }
+    EXPECT_GE(filled, kBins / 2);
 }
 
 // The test can fail: connections carrying twice their power (a broken MIS weight or sensor
