@@ -17,8 +17,7 @@
 // Kernels are normalised over the pixel centres they cover (off-image centres included), so a
 // photon's power is conserved exactly on the plane and only the part falling off the image is
 // lost. Memory does not depend on the photon count: layers are tiled, and a tile exists only once
-// a photon has touched it (a layer's wide kernels add one dense buffer of the image padded by
-// twice the largest radius, allocated by the first of them). Work is organised in passes (a fixed number of photons); the spread of
+// a photon has touched it. Work is organised in passes (a fixed number of photons); the spread of
 // the per-pass images gives a per-pixel variance estimate, kept for the total of the splats made
 // "in the total" (group 0) and for any further groups of layers (addVarianceGroup), e.g. the flare
 // without the direct image, so that a render can estimate its own error.

@@ -36,18 +36,6 @@ GuideMask GuideMask::traced(const LensSystem& lens, const SpectralIndices& indic
     return mask;
 }
 
-GuideMask GuideMask::checkered() const {
-    GuideMask mask = *this;
-    mask.cells_.clear();
-    for (size_t c = 0; c < mask.live_.size(); ++c) {
-        const int i = static_cast<int>(c) % cellsA_, j = static_cast<int>(c) / cellsA_;
-        if ((i + j) % 2 == 1) mask.live_[c] = 0;
-        if (mask.live_[c]) mask.cells_.push_back(static_cast<int>(c));
-    }
-    mask.areaMm2_ = static_cast<double>(mask.cells_.size()) * cellMm_ * cellMm_;
-    return mask;
-}
-
 // Live cells and their eight neighbours.
 void GuideMask::grow(const std::vector<std::uint8_t>& live, int cellsA, int cellsB, double aMinMm, double bMinMm,
                      double cellMm) {

@@ -56,10 +56,6 @@ public:
         return {aMinMm_ + (c % cellsA_ + ua) * cellMm_, bMinMm_ + (c / cellsA_ + ub) * cellMm_};
     }
 
-    // The mask without every other cell (a checkerboard): for the tests of the strategy that
-    // owns the light starting outside a mask.
-    GuideMask checkered() const;
-
 private:
     void grow(const std::vector<std::uint8_t>& live, int cellsA, int cellsB, double aMinMm, double bMinMm, double cellMm);
 

@@ -108,32 +108,16 @@ struct Renderer::LightState {
     // probability of its fraction, and weights every beam by one over the expectation).
     std::vector<std::unique_ptr<WavelengthSampler>> beamWavelengths;
     std::vector<double> beamRate;
-    // The outside strategy (Component::kOutside): the enumerated paths it samples (every ghost
-    // and guided chain, pruned ones included), the cumulative probabilities of drawing each, in
-    // proportion to their power (with a floor), and per slot whether it owns that path's light
-    // outside the slot's mask (all of it for a pruned path, which has none).
-    std::vector<int> outsideSlots;
-    std::vector<double> outsideCdf;
-    std::vector<char> outsideOwned;
     int tallyOffset = 0;                    // tallies: offset + slot, then higher, then scatter
     int slots = 0;
 
     int higherTally() const { return tallyOffset + slots; }
-    // Whether the outside strategy owns a slot's paths that start outside its mask.
-    bool outsideOwns(int slot) const { return !outsideOwned.empty() && outsideOwned[slot]; }
     int scatterTally() const { return tallyOffset + slots + 1; }
 };
 
 struct Renderer::Component {
-    static constexpr int kUnguided = -1;
-    // Enumerated ghost sequences started outside their masks (anywhere, for a pruned ghost):
-    // forced along a ghost drawn by power from a point uniform over the emission disk (zero
-    // inside that ghost's mask, which the mask's own strategy owns). The unguided tracer would
-    // find these paths only through its Fresnel roulette, rarely and then with the weight of the
-    // whole entrance (fireflies).
-    static constexpr int kOutside = -2;
     int light = 0;
-    int slot = kUnguided;  // ≥ 0: the guided photons of that slot
+    int slot = -1;  // −1: the unguided tracer
     double probability = 0.0;
 };
 
@@ -181,7 +165,7 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
     std::vector<double> lightWeight;
     for (const LightSpec& spec : lights) {
         LightState state{LightSampler(spec, lens), WavelengthSampler(toSpectrum(spec.spectrum)),
-                         analyseGhosts(lens, spec.travelDirection(), options.analysis), {}, {}, {}, {}, {}, {}, {}, {}, {}, {}, 0, 0};
+                         analyseGhosts(lens, spec.travelDirection(), options.analysis), {}, {}, {}, {}, {}, {}, {}, 0, 0};
         LightPlan plan;
         plan.name = spec.name;
         // Longer chains: the strongest order-4 paths are enumerated and guided too when the lens's
@@ -319,7 +303,6 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
                 if (slot > 0 && estimate.pruned) return;
                 state.masks[slot] = GuideMask::traced(lens, indices, report.grid, estimate.path, estimate.pupil,
                                                       kGuideGrowCells, marginMm);
-                if (options.testCheckeredGuideMasks) state.masks[slot] = state.masks[slot].checkered();
                 if (state.masks[slot].empty()) return;
                 state.strategy[slot] = PathStrategy::Photons;
                 if (slot == 0 || !beamLight || estimate.lattice.empty()) return;
@@ -442,25 +425,6 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
             tallies_[state.tallyOffset + slot].strategy = state.strategy[slot];
             tallies_[state.tallyOffset + slot].guided = state.strategy[slot] != PathStrategy::Unguided;
         }
-        // The outside strategy's paths (in the guided modes): every enumerated ghost and chain,
-        // pruned ones too (the unguided tracer would find a pruned ghost that focuses to a point
-        // only rarely, and then as a heavy photon in one pixel), by their analysed power with a
-        // floor of 1e-3 of the strongest (the light outside a mask is not in proportion to the
-        // power inside it, and no path may go without samples).
-        if (options.outsideShare > 0.0 && options.mode != RenderOptions::Mode::Naive && !plan.skipped) {
-            double strongest = 0.0;
-            for (int slot = 1; slot < state.slots; ++slot) strongest = std::max(strongest, report.ghosts[slot - 1].powerFraction);
-            double cumulative = 0.0;
-            state.outsideOwned.assign(state.slots, 0);
-            for (int slot = 1; slot < state.slots && strongest > 0.0; ++slot) {
-                state.outsideSlots.push_back(slot);
-                state.outsideCdf.push_back(cumulative += std::max(report.ghosts[slot - 1].powerFraction, 1e-3 * strongest));
-                state.outsideOwned[slot] = 1;
-            }
-            for (double& c : state.outsideCdf) c /= cumulative;
-            if (!state.outsideCdf.empty()) state.outsideCdf.back() = 1.0;
-            if (state.outsideSlots.empty()) state.outsideOwned.clear();
-        }
 
         lightWeight.push_back(plan.skipped ? 0.0 : plan.enteringPowerW);
         lightStates_.push_back(std::move(state));
@@ -520,7 +484,7 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
         if (share == 0.0) continue;
         const LightState& state = lightStates_[l];
         if (options.mode == RenderOptions::Mode::Naive) {
-            components_.push_back({static_cast<int>(l), Component::kUnguided, share});
+            components_.push_back({static_cast<int>(l), -1, share});
             continue;
         }
         double strongest = 0.0;
@@ -542,14 +506,11 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
             unguidedShare /= sum;
             directShare /= sum;
         }
-        const double outsideShare = state.outsideSlots.empty() ? 0.0 : options.outsideShare;
-        const double rest = share * (1.0 - outsideShare);
-        components_.push_back({static_cast<int>(l), Component::kUnguided, rest * unguidedShare});
-        if (directShare > 0.0) components_.push_back({static_cast<int>(l), 0, rest * directShare});
+        components_.push_back({static_cast<int>(l), -1, share * unguidedShare});
+        if (directShare > 0.0) components_.push_back({static_cast<int>(l), 0, share * directShare});
         for (int slot = 1; slot < state.slots; ++slot)
             if (ghostWeight[slot] > 0.0)
-                components_.push_back({static_cast<int>(l), slot, rest * ghostShare * ghostWeight[slot] / ghostTotal});
-        if (outsideShare > 0.0) components_.push_back({static_cast<int>(l), Component::kOutside, share * outsideShare});
+                components_.push_back({static_cast<int>(l), slot, share * ghostShare * ghostWeight[slot] / ghostTotal});
     }
     double cumulative = 0.0;
     for (const Component& c : components_) componentCdf_.push_back(cumulative += c.probability);
@@ -637,38 +598,6 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
             continue;
         }
 
-        if (component.slot == Component::kOutside) {
-            // A guided ghost, by power; a point uniform over the emission disk outside its mask.
-            ++stats.guidedPhotons;
-            const double uSlot = rng.uniform();
-            const size_t i = std::min(light.outsideSlots.size() - 1,
-                                      static_cast<size_t>(std::upper_bound(light.outsideCdf.begin(), light.outsideCdf.end(), uSlot) -
-                                                          light.outsideCdf.begin()));
-            const int slot = light.outsideSlots[i];
-            const double slotProbability = light.outsideCdf[i] - (i > 0 ? light.outsideCdf[i - 1] : 0.0);
-            const double radius = light.sampler.emissionHalfSizeMm();
-            const double r = radius * std::sqrt(u1), phi = 2.0 * std::numbers::pi * u2;
-            const double a = r * std::cos(phi), b = r * std::sin(phi);
-            if (light.masks[slot].contains(a, b)) continue;
-            const EmittedRay emitted = light.sampler.rayThrough(a, b, uLight1, uLight2);
-            const double weight =
-                emitted.powerPerMm2 * std::numbers::pi * radius * radius / (component.probability * slotProbability);
-            if (weight == 0.0) continue;
-            sequence.reflections = light.report.ghosts[slot - 1].path.reflections;
-            pathPoints.clear();
-            pathSurfaces.clear();
-            const TraceResult result = tracePath(lens, indices, emitted.ray, sequence, guidedOptions);
-            if (!result.ok()) continue;
-            const glm::dvec3& p = result.ray.originMm;
-            if (std::abs(p.x) > halfW || std::abs(p.y) > halfH) continue;
-            const double clear =
-                clearWeight ? tracer_.clearTransmittance(pathPoints, pathSurfaces, wavelengthNm, rng, *scratch) : 1.0;
-            score(light.layer[slot], light.ghostLayer[slot], light.tallyOffset + slot, {p.x, p.y},
-                  xyzWeight * (weight * result.throughput * clear));
-            ++stats.outsideHits;
-            continue;
-        }
-
         // Unguided: uniform over the emission disk, non-sequential tracing. (The disk, not its
         // square: the corners hold no ray that can enter, and were a fifth of the photons.)
         ++stats.unguidedPhotons;
@@ -698,9 +627,8 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
                     tally = light.higherTally();
                 } else {
                     const int slot = it->second;
-                    // Owned by a guided strategy: inside its mask by the mask's, outside it (or
-                    // everywhere, for a pruned ghost) by the outside strategy.
-                    if (light.masks[slot].contains(a, b) || (slot > 0 && light.outsideOwns(slot))) continue;
+                    // Owned by a guided strategy: already counted there.
+                    if (light.masks[slot].contains(a, b)) continue;
                     layer = light.layer[slot];
                     tally = light.tallyOffset + slot;
                     ghostLayer = light.ghostLayer[slot];
@@ -954,7 +882,6 @@ void Renderer::runPass() {
         statistics_.guidedPhotons += s.guidedPhotons;
         statistics_.unguidedPhotons += s.unguidedPhotons;
         statistics_.sensorHits += s.sensorHits;
-        statistics_.outsideHits += s.outsideHits;
         statistics_.unguidedEmittedPowerW += s.unguidedEmittedPowerW;
         statistics_.unguidedEnteredPowerW += s.unguidedEnteredPowerW;
         statistics_.nullCollisions += s.nullCollisions;
@@ -1030,7 +957,6 @@ std::uint64_t Renderer::fingerprint() const {
                         static_cast<int>(options_.film.kernel), lens_->surfaceCount(), options_.beamsPerPass,
                         options_.correctionPhotonsPerBeam, options_.beamMeshLevel,
                         static_cast<int>(std::lround(options_.testBeamShiftPx * 1024.0)), options_.maxAnalysedChains,
-                        options_.testCheckeredGuideMasks ? 1 : 0,
                         options_.smoothNeighbours, options_.tabulatedReflectance ? 1 : 0,
                         options_.strayLightSampling ? 1 : 0};
     mix(ints, sizeof ints);
@@ -1048,7 +974,7 @@ std::uint64_t Renderer::fingerprint() const {
 }
 
 namespace {
-constexpr std::uint64_t kCheckpointMagic = 0x3354504b43524c46ull;  // "FLRCKPT3"
+constexpr std::uint64_t kCheckpointMagic = 0x3254504b43524c46ull;  // "FLRCKPT2"
 }
 
 void Renderer::saveCheckpoint(const std::string& path) const {

@@ -62,11 +62,6 @@ struct RenderOptions {
     // to photon-guided ghosts in proportion to their estimated power (when there are none, the
     // unguided tracer and the direct image share everything in these proportions).
     double unguidedShare = 0.1;
-    // The share of a light's photons for its guided ghosts' paths that start outside their masks
-    // (forced along the ghost from a point uniform over the emission disk; Render.cpp's
-    // Component::kOutside), which the unguided tracer would otherwise find only by Fresnel
-    // roulette, as rare heavy photons. 0: the unguided tracer keeps them.
-    double outsideShare = 0.05;
     // The `scatter` layer (veiling glare, which varies slowly across the frame) and the photons
     // of the `higher` layer (the few that the guided chains leave to the unguided tracer) are
     // estimated as smooth: with the film's fixed kernel, they get an adaptive kernel (Film::
@@ -89,9 +84,6 @@ struct RenderOptions {
     // Fault injection for tests only: moves every beam's image by this many pixels (to the
     // right), which biases the render; the tests check that their comparisons catch it.
     double testBeamShiftPx = 0.0;
-    // For tests only: every guide mask without every other cell (GuideMask::checkered), so that
-    // half of each guided path's light starts outside its mask (the outside strategy's part).
-    bool testCheckeredGuideMasks = false;
     // The photon tracer's reflect-or-refract probabilities from a SpectralReflectance table
     // (PhotonTracer::tabulateReflectance) rather than the exact coating response.
     bool tabulatedReflectance = true;
@@ -180,7 +172,6 @@ struct RenderStatistics {
     std::int64_t unguidedPhotons = 0;
     std::int64_t guidedPhotons = 0;
     std::int64_t sensorHits = 0;
-    std::int64_t outsideHits = 0;      // of them, guided ghosts started outside their masks
     std::int64_t beams = 0;
     std::int64_t beamRays = 0;         // traced to mesh the beams
     std::int64_t correctionPhotons = 0;
