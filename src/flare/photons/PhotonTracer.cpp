@@ -490,18 +490,22 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
             glm::dvec3 roughTowards(0.0);  // set when a grease facet replaces the surface normal
             if (hasContamination_ && contamination_[k].any()) {
                 const SurfaceContamination& c = contamination_[k];
+                // Whether the photon meets contamination of local coverage here: forced on a
+                // resumed branch (`outcome`), else split into two branches by stray light sampling
+                // (the one that meets it resumes with `branchDust`, `branchGrease`), else drawn.
                 // Zero local coverage draws no random number: a clean patch traces as a clean lens.
-                // A resumed branch has its outcome forced; stray light sampling splits the walk.
-                const double dust = c.dustCoverageAt(p.x, p.y);
-                bool metDust = dustOutcome == Outcome::Met;
-                if (dustOutcome == Outcome::Drawn && dust > 0.0) {
-                    if (splits(dust))
-                        pushBranch(kind, dust, Outcome::Met, Outcome::Drawn);
-                    else
-                        metDust = rng.uniform() < dust;
-                }
-                dustOutcome = Outcome::Drawn;
-                if (metDust) {
+                auto meets = [&](double coverage, Outcome& outcome, Outcome branchDust, Outcome branchGrease) {
+                    bool met = outcome == Outcome::Met;
+                    if (outcome == Outcome::Drawn && coverage > 0.0) {
+                        if (splits(coverage))
+                            pushBranch(kind, coverage, branchDust, branchGrease);
+                        else
+                            met = rng.uniform() < coverage;
+                    }
+                    outcome = Outcome::Drawn;
+                    return met;
+                };
+                if (meets(c.dustCoverageAt(p.x, p.y), dustOutcome, Outcome::Met, Outcome::Drawn)) {
                     if (weighted()) {
                         deposit(PhotonFate::AbsorbedDust, weight * (1.0 - c.dustAlbedo));
                         weight *= c.dustAlbedo;
@@ -529,16 +533,7 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
                         continue;
                     }
                 }
-                const double grease = c.greaseCoverageAt(p.x, p.y);
-                bool metGrease = greaseOutcome == Outcome::Met;
-                if (greaseOutcome == Outcome::Drawn && grease > 0.0) {
-                    if (splits(grease))
-                        pushBranch(kind, grease, Outcome::Missed, Outcome::Met);
-                    else
-                        metGrease = rng.uniform() < grease;
-                }
-                greaseOutcome = Outcome::Drawn;
-                if (metGrease) {
+                if (meets(c.greaseCoverageAt(p.x, p.y), greaseOutcome, Outcome::Missed, Outcome::Met)) {
                     // A rough patch: the photon meets a GGX microfacet instead of the smooth surface.
                     // Facets seen from behind (steep facets at grazing light) are left out: the
                     // photon then meets the smooth surface, a small bias towards the smooth surface.
