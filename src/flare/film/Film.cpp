@@ -182,8 +182,7 @@ double Film::radiusPx(int layer, const glm::dvec2& sensorMm, double power) const
             // By power, the neighbours also grow as passes^(2/3) (the k-nearest-neighbour rule's
             // optimum k ∝ N^(4/(d+4)) in two dimensions): noise and blur then both fall as
             // passes^(−1/3), where a fixed k trades every further photon for sharpness alone.
-            const double held = k.byPower ? k.neighbours * std::pow(std::max(passes_, 1), 2.0 / 3.0) * std::max(power, 0.0)
-                                          : k.neighbours;
+            const double held = k.byPower ? k.neighbours * neighbourGrowth_ * std::max(power, 0.0) : k.neighbours;
             return std::clamp(std::sqrt(held / (std::numbers::pi * density)), 1.0, k.maxRadiusPx);
         }
     }
@@ -427,6 +426,7 @@ void Film::endPass(std::int64_t photons) {
     counts_ = pendingCounts_;
     powers_ = pendingPowers_;
     ++passes_;
+    neighbourGrowth_ = std::pow(static_cast<double>(passes_), 2.0 / 3.0);
 }
 
 std::vector<float> Film::irradianceXyz(int layer, double photonsEmitted) const {
@@ -568,6 +568,7 @@ void Film::load(std::istream& in) {
     powers_ = std::move(powers);
     pendingPowers_ = powers_;
     passes_ = passes;
+    neighbourGrowth_ = std::pow(static_cast<double>(std::max(passes_, 1)), 2.0 / 3.0);
     std::lock_guard<std::mutex> lock(*estimateMutex_);
     estimates_.clear();
 }

@@ -167,6 +167,7 @@ private:
     std::vector<LayerKernel> layerKernels_;
     double pixelMm_ = 0.0;
     int passes_ = 0;
+    double neighbourGrowth_ = 1.0;  // max(passes, 1)^(2/3): kernels by power hold that many times more
     std::vector<std::unique_ptr<Tiles>> layers_;
     std::vector<Group> groups_;                 // 0: the total
     std::vector<std::vector<int>> layerGroups_; // per layer: the groups ≥ 1 it belongs to

@@ -559,7 +559,6 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
         ++stats.sensorHits;
     };
 
-    const bool straySampling = tracer_.strayLightSampling().weighted;
     for (int photon = 0; photon < options_.batchPhotons; ++photon) {
         ++stats.photons;
         const double uComponent = rng.uniform();
@@ -613,8 +612,8 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
         FateTally& fate = stats.fates[static_cast<int>(history.fate)];
         ++fate.photons;
         fate.powerW += weight * history.weight;
-        if (straySampling)
-            for (int f = 0; f < static_cast<int>(PhotonFate::Count); ++f) stats.fates[f].powerW += weight * history.deposited[f];
+        // (Stray light sampling deposits shares on the way; an analog photon's are all zero.)
+        for (int f = 0; f < static_cast<int>(PhotonFate::Count); ++f) stats.fates[f].powerW += weight * history.deposited[f];
         if (history.entered) stats.unguidedEnteredPowerW += weight;
         if (weight == 0.0) continue;
         for (int i = 0; i < history.arrivalCount; ++i) {

@@ -198,7 +198,7 @@ TEST(StrayLightSampling, SensorConnectionDirectionsFollowTheirDensity) {
         sampled[b] += 1.0;
     }
     const double conePdf = 1.0 / (2.0 * std::numbers::pi * (1.0 - cosLow));
-    double total = 0.0;
+    double total = 0.0, totalSquares = 0.0;
     for (long i = 0; i < M; ++i) {
         const glm::dvec3 w = directionAround(axis, 1.0 - rng.uniform() * (1.0 - cosLow), 2.0 * std::numbers::pi * rng.uniform());
         if (!(w.z > 0.0)) continue;
@@ -207,9 +207,10 @@ TEST(StrayLightSampling, SensorConnectionDirectionsFollowTheirDensity) {
         const double value = flatAreaDirectionPdf(x, y, area) / conePdf;
         const int b = bin(w);
         cone[b] += value, coneSquares[b] += value * value;
-        total += value;
+        total += value, totalSquares += value * value;
     }
-    EXPECT_NEAR(total / M, 1.0, 4.0 * 0.002);  // its own spread is ≈ 0.1 %
+    const double mean = total / M, standardError = std::sqrt((totalSquares / M - mean * mean) / M);
+    EXPECT_NEAR(mean, 1.0, test::normalTwoSidedCritical(1e-4) * standardError);
     const double z = test::normalTwoSidedCritical(1e-3 / kBins);
     int filled = 0;
     for (int b = 0; b < kBins; ++b) {
