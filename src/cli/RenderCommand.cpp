@@ -42,6 +42,7 @@ struct RenderCommandOptions {
     double targetError = 0.02;  // 0: none
     int maxBounces = -2;     // −2: the scene's
     int beamsPerPass = 0;    // 0: the scene's
+    int beamReplicates = 2;
     long long seed = -1;     // −1: the scene's
     int threads = 0;
     double checkpointIntervalS = 60.0;
@@ -129,7 +130,7 @@ nlohmann::json reportJson(const Renderer& renderer, const Scene& scene, const Le
 
     std::vector<const PathTally*> ghosts;
     for (const PathTally& t : renderer.tallies())
-        if (t.kind == PathTally::Kind::Ghost && (t.sumMeans != 0.0 || t.sumPassMeans != 0.0 || t.guided))
+        if (t.kind == PathTally::Kind::Ghost && (t.sumMeans != 0.0 || t.guided))
             ghosts.push_back(&t);
     std::stable_sort(ghosts.begin(), ghosts.end(), [&](const PathTally* a, const PathTally* b) {
         return renderer.tallyPowerW(*a) > renderer.tallyPowerW(*b);
@@ -215,6 +216,7 @@ int run(const RenderCommandOptions& o) {
     if (o.seed >= 0) overrides.seed = static_cast<std::uint64_t>(o.seed);
     if (o.maxBounces >= -1) overrides.maxBounces = o.maxBounces;
     if (o.beamsPerPass > 0) overrides.beamsPerPass = o.beamsPerPass;
+    overrides.beamReplicates = o.beamReplicates;
     overrides.perGhostLayers = o.layers;
     overrides.higherOrder = o.higherOrder == "on"    ? RenderOptions::HigherOrder::On
                             : o.higherOrder == "off" ? RenderOptions::HigherOrder::Off
@@ -347,9 +349,12 @@ void addRenderCommand(CLI::App& app) {
     render->add_option("--max-bounces", o->maxBounces, "stop photons after K reflections (-1: unbounded)")
         ->check(CLI::Range(-1, 1000));
     render->add_option("--beams-per-pass", o->beamsPerPass,
-                       "beams per pass and directional light (default: the scene's render.beams_per_pass, 1024); "
-                       "larger passes converge faster but give the error estimate fewer passes")
+                       "beams per pass and directional light (default: the scene's render.beams_per_pass, 1024)")
         ->check(CLI::Range(16, 65536));
+    render->add_option("--beam-replicates", o->beamReplicates,
+                       "independent replicates of the beams' Sobol' sequences, whose spread gives the error estimate "
+                       "(default 2): more give steadier estimates and per-ghost standard errors, fewer a cleaner image")
+        ->check(CLI::Range(2, kMaxReplicates));
     render->add_option("--seed", o->seed, "random seed (default: the scene's)")->check(CLI::NonNegativeNumber);
     render->add_option("--threads", o->threads, "worker threads (default: all cores)")->check(CLI::PositiveNumber);
     render->add_flag("--layers", o->layers,

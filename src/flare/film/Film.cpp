@@ -14,6 +14,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
+#include "flare/core/Replicates.h"
 #include "flare/core/Spectrum.h"
 
 namespace flare {
@@ -23,7 +24,7 @@ namespace {
 constexpr int kTilePx = 32;
 constexpr int kCountBlockPx = 8;
 constexpr double kMm2PerM2 = 1e6;
-constexpr std::uint64_t kFilmMagic = 0x34464c4946524c46ull;  // "FLRFILF4"
+constexpr std::uint64_t kFilmMagic = 0x35464c4946524c46ull;  // "FLRFILF5"
 
 template <class T>
 void writeRaw(std::ostream& out, const T& value) {
@@ -97,12 +98,15 @@ struct Film::WideSplats {
     double* at(int x, int y) { return &deltas[(static_cast<size_t>(y) * width + x) * 3]; }
 };
 
-// One variance group: the current pass's image and the running sums over passes (RGB).
+// One variance group: the current pass's image and the running sums over passes (RGB): with
+// independent passes, the sum of the pass images and the sum of their squares; with K
+// replicates, each replicate's sum of its pass images.
 struct Film::Group {
-    std::unique_ptr<Tiles> pass, sumPasses, sumSquares;
-    explicit Group(int w, int h)
-        : pass(std::make_unique<Tiles>(w, h)), sumPasses(std::make_unique<Tiles>(w, h)),
-          sumSquares(std::make_unique<Tiles>(w, h)) {}
+    std::unique_ptr<Tiles> pass;
+    std::vector<std::unique_ptr<Tiles>> sums;
+    Group(int w, int h, int replicates) : pass(std::make_unique<Tiles>(w, h)) {
+        for (int i = 0; i < std::max(replicates, 2); ++i) sums.push_back(std::make_unique<Tiles>(w, h));
+    }
 };
 
 Film::Film(const FilmSettings& settings, int layerCount) : settings_(settings) {
@@ -117,7 +121,7 @@ Film::Film(const FilmSettings& settings, int layerCount) : settings_(settings) {
     for (int l = 0; l < layerCount; ++l) layers_.push_back(std::make_unique<Tiles>(settings.widthPx, settings.heightPx));
     layerKernels_.assign(layerCount, {settings.kernel, settings.neighbours, settings.maxRadiusPx});
     layerGroups_.assign(layerCount, {});
-    groups_.emplace_back(settings.widthPx, settings.heightPx);
+    groups_.emplace_back(settings.widthPx, settings.heightPx, replicates_);
     if (settings.kernel == FilmSettings::Kernel::Adaptive) allocateCounts();
 }
 
@@ -146,13 +150,22 @@ int Film::varianceGroupCount() const { return static_cast<int>(groups_.size()); 
 int Film::addVarianceGroup(const std::vector<int>& layers) {
     if (passes_ > 0) throw std::logic_error("Film::addVarianceGroup after the first pass");
     const int group = static_cast<int>(groups_.size());
-    groups_.emplace_back(settings_.widthPx, settings_.heightPx);
+    groups_.emplace_back(settings_.widthPx, settings_.heightPx, replicates_);
     for (int l : layers) {
         if (l < 0 || l >= layerCount()) throw std::invalid_argument("Film::addVarianceGroup: no layer " + std::to_string(l));
         layerGroups_[l].push_back(group);
     }
     return group;
 }
+void Film::setReplicates(int replicates) {
+    if (passes_ > 0) throw std::logic_error("Film::setReplicates after the first pass");
+    if (replicates != 0 && (replicates < 2 || replicates > kMaxReplicates))
+        throw std::invalid_argument("Film::setReplicates: 0 (independent passes) or 2 to " +
+                                    std::to_string(kMaxReplicates) + " replicates");
+    replicates_ = replicates;
+    for (Group& group : groups_) group = Group(settings_.widthPx, settings_.heightPx, replicates_);
+}
+
 Film::Film(Film&&) noexcept = default;
 Film& Film::operator=(Film&&) noexcept = default;
 
@@ -413,8 +426,13 @@ void Film::endPass(std::int64_t photons) {
                     for (int x = tx * kTilePx; x < x1; ++x) {
                         const double* p = pass.find(x, y);
                         const glm::dvec3 rgb = xyzToLinearSrgb(glm::dvec3(p[0], p[1], p[2]) * scale);
-                        double* s = group.sumPasses->at(x, y);
-                        double* q = group.sumSquares->at(x, y);
+                        if (replicates_ > 0) {
+                            double* s = group.sums[passes_ % replicates_]->at(x, y);
+                            for (int c = 0; c < 3; ++c) s[c] += rgb[c];
+                            continue;
+                        }
+                        double* s = group.sums[0]->at(x, y);
+                        double* q = group.sums[1]->at(x, y);
                         for (int c = 0; c < 3; ++c) {
                             s[c] += rgb[c];
                             q[c] += rgb[c] * rgb[c];
@@ -441,29 +459,43 @@ std::vector<float> Film::irradianceXyz(int layer, double photonsEmitted) const {
     return out;
 }
 
-std::vector<float> Film::varianceRgb(int group) const {
-    if (passes_ < 2) return {};
-    const int w = settings_.widthPx, h = settings_.heightPx;
+bool Film::hasVariance() const { return replicates_ > 0 ? passes_ >= replicates_ : passes_ >= 2; }
+
+// The variance of the mean over passes of values[i] (i a pixel's channel within a tile), where
+// sums are the group's running sums of that tile (null where no pass reached it).
+double Film::varianceOfMean(const double* const* sums, int i) const {
+    if (replicates_ > 0) return replicateVarianceOfMean(sums, i, replicates_, passes_);
+    if (!sums[0]) return 0.0;
+    // Unbiased sample variance of the pass images, divided by n: the variance of their mean.
     const double n = passes_;
+    const double mean = sums[0][i] / n;
+    return std::max(0.0, (sums[1][i] - n * mean * mean) / (n - 1.0)) / n;
+}
+
+std::vector<float> Film::varianceRgb(int group) const {
+    if (!hasVariance()) return {};
+    const int w = settings_.widthPx, h = settings_.heightPx;
     const Group& g = groups_.at(group);
     std::vector<float> out(static_cast<size_t>(w) * h * 3, 0.0f);
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-            const double* s = g.sumPasses->find(x, y);
-            if (!s) continue;
-            const double* q = g.sumSquares->find(x, y);
-            for (int c = 0; c < 3; ++c) {
-                const double mean = s[c] / n;
-                // Unbiased sample variance of the pass images, divided by n: the variance of their mean.
-                const double variance = std::max(0.0, (q[c] - n * mean * mean) / (n - 1.0)) / n;
-                out[(static_cast<size_t>(y) * w + x) * 3 + c] = static_cast<float>(variance);
-            }
-        }
+    const double* sums[kMaxReplicates];
+    for (size_t t = 0; t < g.sums[0]->tiles.size(); ++t) {
+        bool any = false;
+        for (size_t k = 0; k < g.sums.size(); ++k) any = (sums[k] = g.sums[k]->tiles[t].get()) || any;
+        if (!any) continue;
+        const int tx = static_cast<int>(t % g.sums[0]->tilesX), ty = static_cast<int>(t / g.sums[0]->tilesX);
+        const int x1 = std::min((tx + 1) * kTilePx, w), y1 = std::min((ty + 1) * kTilePx, h);
+        for (int y = ty * kTilePx; y < y1; ++y)
+            for (int x = tx * kTilePx; x < x1; ++x)
+                for (int c = 0; c < 3; ++c) {
+                    const int i = ((y - ty * kTilePx) * kTilePx + (x - tx * kTilePx)) * 3 + c;
+                    out[(static_cast<size_t>(y) * w + x) * 3 + c] = static_cast<float>(varianceOfMean(sums, i));
+                }
+    }
     return out;
 }
 
 Film::ErrorEstimate Film::errorEstimate(int group) const {
-    if (passes_ < 2) return {};
+    if (!hasVariance()) return {};
     const Group& g = groups_.at(group);
     // The render loop asks after every pass (to stop, for the progress bar, for the report): the
     // sums are kept until the next pass changes them.
@@ -472,16 +504,19 @@ Film::ErrorEstimate Film::errorEstimate(int group) const {
     if (estimates_[group].passes == passes_) return estimates_[group].estimate;
     ErrorEstimate e;
     const double n = passes_;
-    // Tile by tile over the tiles that exist (a pixel no pass reached has no variance).
-    const Tiles& sums = *g.sumPasses;
-    const Tiles& squares = *g.sumSquares;
-    for (size_t t = 0; t < sums.tiles.size(); ++t) {
-        const double* s = sums.tiles[t].get();
-        if (!s) continue;
-        const double* q = squares.tiles[t].get();  // allocated with it
+    // Tile by tile over the tiles that exist (a pixel no pass reached has no variance). With
+    // independent passes, sums[0] holds the pass images' sum; with replicates, every sum does.
+    const int sumsOfPasses = replicates_ > 0 ? replicates_ : 1;
+    const double* sums[kMaxReplicates];
+    for (size_t t = 0; t < g.sums[0]->tiles.size(); ++t) {
+        bool any = false;
+        for (size_t k = 0; k < g.sums.size(); ++k) any = (sums[k] = g.sums[k]->tiles[t].get()) || any;
+        if (!any) continue;
         for (int i = 0; i < kTilePx * kTilePx * 3; ++i) {
-            const double mean = s[i] / n;
-            e.sumVariance += std::max(0.0, (q[i] - n * mean * mean) / (n - 1.0)) / n;
+            double total = 0.0;
+            for (int k = 0; k < sumsOfPasses; ++k) total += sums[k] ? sums[k][i] : 0.0;
+            const double mean = total / n;
+            e.sumVariance += varianceOfMean(sums, i);
             e.squaredNorm += mean * mean;
         }
     }
@@ -496,6 +531,7 @@ void Film::save(std::ostream& out) const {
     writeRaw<std::int32_t>(out, static_cast<std::int32_t>(settings_.kernel));
     writeRaw<std::int32_t>(out, layerCount());
     writeRaw<std::int32_t>(out, varianceGroupCount());
+    writeRaw<std::int32_t>(out, replicates_);
     writeRaw<std::int32_t>(out, passes_);
     for (const LayerKernel& k : layerKernels_) {
         writeRaw<std::int32_t>(out, static_cast<std::int32_t>(k.kernel));
@@ -504,10 +540,8 @@ void Film::save(std::ostream& out) const {
         writeRaw<std::uint8_t>(out, k.byPower ? 1 : 0);
     }
     for (const auto& layer : layers_) layer->save(out);
-    for (const Group& group : groups_) {
-        group.sumPasses->save(out);
-        group.sumSquares->save(out);
-    }
+    for (const Group& group : groups_)
+        for (const auto& sums : group.sums) sums->save(out);
     for (const auto& counts : counts_) out.write(reinterpret_cast<const char*>(counts.data()), sizeof(std::uint32_t) * counts.size());
     for (const auto& powers : powers_) out.write(reinterpret_cast<const char*>(powers.data()), sizeof(double) * powers.size());
 }
@@ -517,9 +551,11 @@ void Film::load(std::istream& in) {
     const int w = readRaw<std::int32_t>(in), h = readRaw<std::int32_t>(in);
     const int kernel = readRaw<std::int32_t>(in), layers = readRaw<std::int32_t>(in);
     const int groups = readRaw<std::int32_t>(in);
+    const int replicates = readRaw<std::int32_t>(in);
     if (w != settings_.widthPx || h != settings_.heightPx || kernel != static_cast<int>(settings_.kernel) ||
-        layers != layerCount() || groups != varianceGroupCount())
-        throw std::runtime_error("checkpoint: the film's size, kernel, layers or variance groups differ from this render's");
+        layers != layerCount() || groups != varianceGroupCount() || replicates != replicates_)
+        throw std::runtime_error(
+            "checkpoint: the film's size, kernel, layers, variance groups or replicates differ from this render's");
     const int passes = readRaw<std::int32_t>(in);
     if (passes < 0) throw std::runtime_error("checkpoint: negative pass count");
     for (const LayerKernel& k : layerKernels_) {
@@ -532,7 +568,8 @@ void Film::load(std::istream& in) {
     }
     // Read everything into fresh buffers first: a bad file leaves this film untouched.
     std::vector<std::unique_ptr<Tiles>> loaded;
-    for (int l = 0; l < layers + 2 * groups; ++l) {
+    const int sumsPerGroup = static_cast<int>(groups_[0].sums.size());
+    for (int l = 0; l < layers + sumsPerGroup * groups; ++l) {
         loaded.push_back(std::make_unique<Tiles>(w, h));
         loaded.back()->load(in);
     }
@@ -548,19 +585,20 @@ void Film::load(std::istream& in) {
         if (!std::all_of(p.begin(), p.end(), [](double v) { return std::isfinite(v) && v >= 0.0; }))
             throw std::runtime_error("checkpoint: invalid film data");
     }
-    // A group's pass sums and their squares are written together: a tile in one is a tile in the other.
-    for (int g = 0; g < groups; ++g) {
-        const Tiles& sums = *loaded[layers + 2 * g];
-        const Tiles& squares = *loaded[layers + 2 * g + 1];
-        for (size_t t = 0; t < sums.tiles.size(); ++t)
-            if (static_cast<bool>(sums.tiles[t]) != static_cast<bool>(squares.tiles[t]))
-                throw std::runtime_error("checkpoint: inconsistent variance data");
-    }
+    // With independent passes, a group's pass sums and their squares are written together: a tile
+    // in one is a tile in the other (replicates' tiles are independent).
+    if (replicates_ == 0)
+        for (int g = 0; g < groups; ++g) {
+            const Tiles& sums = *loaded[layers + 2 * g];
+            const Tiles& squares = *loaded[layers + 2 * g + 1];
+            for (size_t t = 0; t < sums.tiles.size(); ++t)
+                if (static_cast<bool>(sums.tiles[t]) != static_cast<bool>(squares.tiles[t]))
+                    throw std::runtime_error("checkpoint: inconsistent variance data");
+        }
 
     for (int l = 0; l < layers; ++l) layers_[l] = std::move(loaded[l]);
     for (int g = 0; g < groups; ++g) {
-        groups_[g].sumPasses = std::move(loaded[layers + 2 * g]);
-        groups_[g].sumSquares = std::move(loaded[layers + 2 * g + 1]);
+        for (int k = 0; k < sumsPerGroup; ++k) groups_[g].sums[k] = std::move(loaded[layers + sumsPerGroup * g + k]);
         groups_[g].pass->clear();
     }
     counts_ = std::move(counts);

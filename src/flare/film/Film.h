@@ -88,6 +88,13 @@ public:
     int addVarianceGroup(const std::vector<int>& layers);
     int varianceGroupCount() const;
 
+    // How the variance is estimated (before the first pass): 0, from the spread of the passes,
+    // which must then be independent; K ≥ 2, from the spread of K interleaved replicates (pass p
+    // belongs to replicate p mod K; core/Replicates.h), for passes that are correlated within a
+    // replicate and independent across them (the beams' continued Sobol' sequences).
+    void setReplicates(int replicates);
+    int replicates() const { return replicates_; }
+
     // Adds `xyzPowerW` (W, CIE XYZ) arriving at `sensorMm` (lens space) to a layer. When
     // `inTotal`, the power also counts towards the variance of the total image.
     void splat(int layer, const glm::dvec2& sensorMm, const glm::dvec3& xyzPowerW, bool inTotal = true);
@@ -106,11 +113,12 @@ public:
     // `photonsEmitted` photons in all: accumulated power / (photons · pixel area).
     std::vector<float> irradianceXyz(int layer, double photonsEmitted) const;
     // Per-pixel variance of a variance group's irradiance estimate (group 0: the total image;
-    // linear Rec.709 RGB, (W/m²)²), from the spread between passes. Empty before two passes.
+    // linear Rec.709 RGB, (W/m²)²), from the spread between passes (or replicates). Empty before
+    // two passes (before every replicate has one).
     std::vector<float> varianceRgb(int group = 0) const;
     // The group's estimated relative L2 error: sqrt(Σ variance) / ‖mean image‖ over every pixel
     // and RGB channel, the quantity `flare compare` measures against a reference; with the sum
-    // of variances and the squared norm (both in (W/m²)²). Zero before two passes.
+    // of variances and the squared norm (both in (W/m²)²). Zero while varianceRgb is empty.
     struct ErrorEstimate {
         double sumVariance = 0.0, squaredNorm = 0.0;
         double relative() const { return squaredNorm > 0.0 ? std::sqrt(sumVariance / squaredNorm) : 0.0; }
@@ -162,11 +170,14 @@ private:
     void addWideKernel(int layer, bool inTotal, int cx, int cy, int m, const glm::dvec3& value, int rowBegin,
                        int rowEnd);
     void integrateWideSplats();
+    bool hasVariance() const;
+    double varianceOfMean(const double* const* sums, int i) const;
 
     FilmSettings settings_;
     std::vector<LayerKernel> layerKernels_;
     double pixelMm_ = 0.0;
     int passes_ = 0;
+    int replicates_ = 0;
     double neighbourGrowth_ = 1.0;  // max(passes, 1)^(2/3): kernels by power hold that many times more
     std::vector<std::unique_ptr<Tiles>> layers_;
     std::vector<Group> groups_;                 // 0: the total

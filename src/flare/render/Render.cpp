@@ -11,12 +11,13 @@
 #include <numbers>
 #include <unordered_map>
 
-#include <boost/random/sobol.hpp>
 #include <glm/geometric.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include "flare/core/Error.h"
+#include "flare/core/Random.h"
+#include "flare/core/ScrambledSobol.h"
 #include "flare/ghosts/GuideMask.h"
 #include "flare/optics/SequentialTracer.h"
 #include "flare/photons/LightSampler.h"
@@ -134,6 +135,8 @@ struct Renderer::BatchResult {
 // One beam of one path in one pass, and what it produced.
 struct Renderer::BeamJob {
     int light = 0, slot = 0, index = 0;  // index: the beam's number within the path's pass
+    int replicate = 0;
+    std::uint64_t sequenceIndex = 0;     // the beam's point in its replicate's sequence
     GhostBeam beam;
     glm::dvec2 jitterPx{0.0};
     glm::dvec3 scale{0.0};     // film units per unit irradiance × pupil area
@@ -147,6 +150,8 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
     : lens_(&lens), options_(options), indexTable_(lens),
       tracer_(lens, options.materials, options.maxBounces, options.contamination, options.media),
       film_(options.film, kFixedLayerCount) {
+    if (options.beamReplicates < 2 || options.beamReplicates > kMaxReplicates)
+        throw std::invalid_argument("RenderOptions: beamReplicates must be in [2, " + std::to_string(kMaxReplicates) + "]");
     for (int l = 0; l < kFixedLayerCount; ++l) layerNames_.push_back(renderLayerName(l));
     if (options.tabulatedReflectance) tracer_.tabulateReflectance();
     if (options.strayLightSampling && options.mode != RenderOptions::Mode::Naive)
@@ -472,6 +477,13 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
     }
     for (int l = 0; l < kFixedLayerCount; ++l) film_.addVarianceGroup({l});
     film_.addVarianceGroup({kLayerGhost, kLayerHigher, kLayerScatter});
+    // Beams continue their sequences from pass to pass: the error is estimated from replicates.
+    bool anyBeams = false;
+    for (const LightState& light : lightStates_) {
+        beamsDrawn_.emplace_back(static_cast<size_t>(light.slots) * options.beamReplicates, 0);
+        for (int slot = 1; slot < light.slots; ++slot) anyBeams = anyBeams || light.beamRate[slot] > 0.0;
+    }
+    if (anyBeams) film_.setReplicates(options.beamReplicates);
 
     // The photon budget: lights in proportion to the power they send in (every photon then
     // carries a similar power); within a light, the unguided share, the direct share, and the
@@ -650,18 +662,15 @@ void Renderer::traceBeam(BeamJob& job) const {
     const GuideMask& mask = light.masks[job.slot];
     const double beams = light.beamRate[job.slot];
     const std::uint64_t pass = static_cast<std::uint64_t>(statistics_.passes);
-    // The path's samples of this pass: the first `beams` points of the Sobol' sequence, with a
-    // random digital shift of the pass (so that passes are independent estimates).
-    const std::uint64_t stream = (pass << 32) ^ (static_cast<std::uint64_t>(job.light) << 20) ^
-                                 static_cast<std::uint64_t>(job.slot);
-    Rng shiftRng(options_.seed ^ 0x5eedbea5u, stream);
+    const std::uint64_t path = (static_cast<std::uint64_t>(job.light) << 20) ^ static_cast<std::uint64_t>(job.slot);
+    // The beam's sample: the next point of its path's sequence in its replicate (every path and
+    // replicate scrambled independently), so a render's beams of a path are one stratified
+    // sequence per replicate, not a fresh set per pass.
     double u[kBeamDimensions];
-    boost::random::sobol sobol(kBeamDimensions);
-    sobol.discard(static_cast<boost::uintmax_t>(job.index) * kBeamDimensions);
-    for (double& v : u) {
-        const std::uint64_t shift = (static_cast<std::uint64_t>(shiftRng.next()) << 32) | shiftRng.next();
-        v = static_cast<double>((static_cast<std::uint64_t>(sobol()) ^ shift) >> 11) * 0x1.0p-53;
-    }
+    const ScrambledSobol points(kBeamDimensions, mixBits(options_.seed ^ 0x5eedbea5u) ^
+                                                     mixBits((static_cast<std::uint64_t>(job.replicate) << 40) ^ path));
+    points.point(job.sequenceIndex, u);
+    const std::uint64_t stream = (pass << 32) ^ path;
     Rng rng(options_.seed, (stream << 16) ^ static_cast<std::uint64_t>(job.index) ^ 0xbea7000000000000ull);
 
     double pdfPerNm = 0.0;
@@ -825,26 +834,34 @@ void Renderer::merge(const std::vector<BatchResult>& batches, const std::vector<
     });
 }
 
+int Renderer::beamCount(int pass, size_t light, int slot) const {
+    // The expected number's floor, and one more with the probability of its fraction (the
+    // estimate divides by the expectation: unbiased).
+    const double rate = lightStates_[light].beamRate[slot];
+    if (!(rate > 0.0)) return 0;
+    Rng countRng(options_.seed ^ 0xc0c0a0a0u,
+                 (static_cast<std::uint64_t>(pass) << 32) ^ (static_cast<std::uint64_t>(light) << 20) ^
+                     static_cast<std::uint64_t>(slot));
+    return static_cast<int>(rate) + (countRng.uniform() < rate - std::floor(rate) ? 1 : 0);
+}
+
 void Renderer::runPass() {
     const auto start = std::chrono::steady_clock::now();
     const int batches = options_.batchesPerPass;
     std::vector<BeamJob> beamJobs;
+    const int replicate = replicateOfPass(statistics_.passes);
     for (size_t l = 0; l < lightStates_.size(); ++l) {
         const LightState& light = lightStates_[l];
         for (int slot = 1; slot < light.slots; ++slot) {
-            // The path's beams this pass: the expected number's floor, and one more with the
-            // probability of its fraction (the estimate divides by the expectation: unbiased).
-            const double rate = light.beamRate[slot];
-            if (!(rate > 0.0)) continue;
-            Rng countRng(options_.seed ^ 0xc0c0a0a0u, (static_cast<std::uint64_t>(statistics_.passes) << 32) ^
-                                                        (static_cast<std::uint64_t>(l) << 20) ^
-                                                        static_cast<std::uint64_t>(slot));
-            const int count = static_cast<int>(rate) + (countRng.uniform() < rate - std::floor(rate) ? 1 : 0);
+            const int count = beamCount(statistics_.passes, l, slot);
+            std::uint64_t& drawn = beamsDrawn_[l][static_cast<size_t>(slot) * options_.beamReplicates + replicate];
             for (int k = 0; k < count; ++k) {
                 BeamJob job;
                 job.light = static_cast<int>(l);
                 job.slot = slot;
                 job.index = k;
+                job.replicate = replicate;
+                job.sequenceIndex = drawn++;
                 beamJobs.push_back(std::move(job));
             }
         }
@@ -903,15 +920,9 @@ void Renderer::runPass() {
         statistics_.beamRays += job.beam.tracedRays();
         statistics_.correctionPhotons += job.photons;
     }
-    for (size_t t = 0; t < tallies_.size(); ++t) {
-        if (tallies_[t].strategy != PathStrategy::Beams) continue;
-        tallies_[t].sumPassMeans += passTally[t];
-        tallies_[t].sumSquaredPassMeans += passTally[t] * passTally[t];
-    }
-    for (int l = 0; l < kFixedLayerCount; ++l) {
-        layerTallies_[l].sumPassMeans += passLayer[l];
-        layerTallies_[l].sumSquaredPassMeans += passLayer[l] * passLayer[l];
-    }
+    for (size_t t = 0; t < tallies_.size(); ++t)
+        if (tallies_[t].strategy == PathStrategy::Beams) tallies_[t].replicateSums[replicate] += passTally[t];
+    for (int l = 0; l < kFixedLayerCount; ++l) layerTallies_[l].replicateSums[replicate] += passLayer[l];
     film_.endPass(options_.photonsPerPass());
     batchesDone_ += batches;
     ++statistics_.passes;
@@ -925,7 +936,8 @@ std::vector<float> Renderer::layerXyz(int layer) const {
 double Renderer::tallyPowerW(const PathTally& tally) const {
     double power = 0.0;
     if (batchesDone_ > 0) power += tally.sumMeans / static_cast<double>(batchesDone_);
-    if (statistics_.passes > 0) power += tally.sumPassMeans / statistics_.passes;
+    if (statistics_.passes > 0)
+        for (int r = 0; r < options_.beamReplicates; ++r) power += tally.replicateSums[r] / statistics_.passes;
     return power;
 }
 
@@ -937,7 +949,7 @@ double Renderer::tallyStandardErrorW(const PathTally& tally) const {
         return std::max(0.0, (sumSquares - n * mean * mean) / (n - 1.0)) / n;
     };
     return std::sqrt(varianceOfMean(tally.sumMeans, tally.sumSquaredMeans, static_cast<double>(batchesDone_)) +
-                     varianceOfMean(tally.sumPassMeans, tally.sumSquaredPassMeans, statistics_.passes));
+                     replicateVarianceOfMean(tally.replicateSums.data(), options_.beamReplicates, statistics_.passes));
 }
 
 double Renderer::estimatedRelativeError(int group) const { return film_.errorEstimate(group).relative(); }
@@ -957,7 +969,7 @@ std::uint64_t Renderer::fingerprint() const {
                         options_.correctionPhotonsPerBeam, options_.beamMeshLevel,
                         static_cast<int>(std::lround(options_.testBeamShiftPx * 1024.0)), options_.maxAnalysedChains,
                         options_.smoothNeighbours, options_.tabulatedReflectance ? 1 : 0,
-                        options_.strayLightSampling ? 1 : 0};
+                        options_.strayLightSampling ? 1 : 0, options_.beamReplicates};
     mix(ints, sizeof ints);
     for (const Component& c : components_) {
         mix(&c.light, sizeof c.light);
@@ -973,7 +985,7 @@ std::uint64_t Renderer::fingerprint() const {
 }
 
 namespace {
-constexpr std::uint64_t kCheckpointMagic = 0x3254504b43524c46ull;  // "FLRCKPT2"
+constexpr std::uint64_t kCheckpointMagic = 0x3354504b43524c46ull;  // "FLRCKPT3"
 }
 
 void Renderer::saveCheckpoint(const std::string& path) const {
@@ -986,8 +998,9 @@ void Renderer::saveCheckpoint(const std::string& path) const {
         out.write(reinterpret_cast<const char*>(&statistics_), sizeof statistics_);
         for (const auto* list : {&tallies_, &layerTallies_, &scatterSourceTallies_})
             for (const PathTally& t : *list) {
-                const double sums[] = {t.sumMeans, t.sumSquaredMeans, t.sumPassMeans, t.sumSquaredPassMeans};
+                const double sums[] = {t.sumMeans, t.sumSquaredMeans};
                 out.write(reinterpret_cast<const char*>(sums), sizeof sums);
+                out.write(reinterpret_cast<const char*>(t.replicateSums.data()), sizeof t.replicateSums);
             }
         film_.save(out);
         out.flush();
@@ -1013,9 +1026,10 @@ void Renderer::loadCheckpoint(const std::string& path) {
         std::vector<PathTally> tallies = tallies_, layerTallies = layerTallies_, sourceTallies = scatterSourceTallies_;
         for (auto* list : {&tallies, &layerTallies, &sourceTallies})
             for (PathTally& t : *list) {
-                double sums[4] = {};
+                double sums[2] = {};
                 in.read(reinterpret_cast<char*>(sums), sizeof sums);
-                t.sumMeans = sums[0], t.sumSquaredMeans = sums[1], t.sumPassMeans = sums[2], t.sumSquaredPassMeans = sums[3];
+                in.read(reinterpret_cast<char*>(t.replicateSums.data()), sizeof t.replicateSums);
+                t.sumMeans = sums[0], t.sumSquaredMeans = sums[1];
             }
         if (!in) throw std::runtime_error("checkpoint: truncated");
         // The doubles are taken as written: a corrupt or hostile file could hold a NaN or an
@@ -1030,8 +1044,8 @@ void Renderer::loadCheckpoint(const std::string& path) {
         for (double y : statistics.largestPhotonY) valid = valid && !bad(y);
         for (const auto* list : {&tallies, &layerTallies, &sourceTallies})
             for (const PathTally& t : *list)
-                valid = valid && !bad(t.sumMeans) && !bad(t.sumSquaredMeans) && std::isfinite(t.sumPassMeans) &&
-                        !bad(t.sumSquaredPassMeans);
+                valid = valid && !bad(t.sumMeans) && !bad(t.sumSquaredMeans) &&
+                        std::all_of(t.replicateSums.begin(), t.replicateSums.end(), [](double v) { return std::isfinite(v); });
         if (!valid) throw std::runtime_error("checkpoint: a statistic or tally is negative or not finite");
         film_.load(in);
         if (film_.passes() != statistics.passes) throw std::runtime_error("checkpoint: the film's passes differ from the statistics'");
@@ -1040,6 +1054,13 @@ void Renderer::loadCheckpoint(const std::string& path) {
         layerTallies_ = std::move(layerTallies);
         scatterSourceTallies_ = std::move(sourceTallies);
         batchesDone_ = static_cast<std::int64_t>(header[2]);
+        // Where each replicate's sequences go on: the beams its passes drew.
+        for (auto& drawn : beamsDrawn_) std::fill(drawn.begin(), drawn.end(), 0);
+        for (int pass = 0; pass < statistics_.passes; ++pass)
+            for (size_t l = 0; l < lightStates_.size(); ++l)
+                for (int slot = 1; slot < lightStates_[l].slots; ++slot)
+                    beamsDrawn_[l][static_cast<size_t>(slot) * options_.beamReplicates + replicateOfPass(pass)] +=
+                        beamCount(pass, l, slot);
     } catch (const std::runtime_error& e) {
         throw InputError(path, 0, e.what());
     }

@@ -5,9 +5,9 @@
 //   beams    (guided mode, directional lights) each kept ghost path is owned for the pupil points
 //            inside its guide mask. Its image is estimated per pass by beams (GhostBeam.h): the
 //            path meshed at a sampled wavelength, direction within the light's disk and film-kernel
-//            jitter, its irradiance integrated over the pupil deterministically; the samples are a
-//            scrambled Sobol' set per pass, with wavelengths drawn where the path's coatings
-//            reflect. Photons traced through the path at a beam's wavelength and direction correct
+//            jitter, its irradiance integrated over the pupil deterministically; the samples
+//            continue an Owen-scrambled Sobol' sequence from pass to pass (one per replicate,
+//            below), with wavelengths drawn where the path's coatings reflect. Photons traced through the path at a beam's wavelength and direction correct
 //            the beam through their twins (photon − twin, both splatted with the film's kernel),
 //            so the estimate is unbiased whatever the mesh's error, and the noise left is that of
 //            the difference, which vanishes where the piecewise-linear map is accurate.
@@ -26,10 +26,12 @@
 //
 // Work is split into passes of photon batches and beams; every batch's and beam's random numbers
 // come from (seed, pass, index) and a pass is merged into the film band by band in a fixed order,
-// in parallel, so the image depends on the seed and never on the thread count. Passes are
-// independent estimates: the spread between them gives the variance of every layer and of the
-// flare without the direct image (the render's error estimate), and they are the unit of
-// checkpoints.
+// in parallel, so the image depends on the seed and never on the thread count. Without beams,
+// passes are independent estimates: the spread between them gives the variance of every layer
+// and of the flare without the direct image (the render's error estimate). With beams, the passes
+// interleave `beamReplicates` independent replicates (pass p extends replicate p mod K's Sobol'
+// sequences; core/Replicates.h), and the spread between the replicates gives it. Passes are the
+// unit of checkpoints.
 #pragma once
 
 #include <array>
@@ -37,6 +39,7 @@
 #include <string>
 #include <vector>
 
+#include "flare/core/Replicates.h"
 #include "flare/film/Film.h"
 #include "flare/ghosts/GhostAnalysis.h"
 #include "flare/optics/IndexTable.h"
@@ -79,6 +82,13 @@ struct RenderOptions {
     // (the default scene's ghost layer after 12 s: 3.0 % at 256 per pass, 2.0 % at 1024).
     int beamsPerPass = 1024;
     int correctionPhotonsPerBeam = 0;
+    // Independent replicates of the beams' sequences (2 to kMaxReplicates): the render's
+    // error estimate, and each beam path's standard error, come from their spread. Each replicate
+    // continues its own Sobol' sequence, whose error falls faster than one over the square root
+    // of its length, so fewer replicates give a cleaner image in the same time (docs/BENCHMARKS.md:
+    // on the default scene four replicates had 1.15× the error of two) but a rougher estimate of
+    // its error (K − 1 degrees of freedom per pixel and per path).
+    int beamReplicates = 2;
     // Beams are meshed on the ghost analysis's cells split to this level (PupilRemeshOptions).
     int beamMeshLevel = 2;
     // Fault injection for tests only: moves every beam's image by this many pixels (to the
@@ -130,8 +140,8 @@ enum class PathStrategy : std::uint8_t { Unguided, Photons, Beams };
 const char* toString(PathStrategy strategy);
 
 // What a path tally counts, per light. The estimate is the sum of two independent parts, each
-// with its own samples: per photon batch (photon strategies) and per pass (beams, whose samples
-// within a pass are stratified together).
+// with its own samples: per photon batch (photon strategies) and per pass (beams, whose passes
+// are correlated within a replicate and independent across replicates).
 struct PathTally {
     enum class Kind { Direct, Ghost, Higher, Scatter };
     Kind kind = Kind::Ghost;
@@ -141,7 +151,7 @@ struct PathTally {
     PathStrategy strategy = PathStrategy::Unguided;
     bool guided = false;       // owned by a guided strategy (photons or beams) inside its mask
     double sumMeans = 0.0, sumSquaredMeans = 0.0;          // over batches: per-photon mean Y power (W)
-    double sumPassMeans = 0.0, sumSquaredPassMeans = 0.0;  // over passes: the beams' Y power (W)
+    std::array<double, kMaxReplicates> replicateSums{};   // per replicate: Σ over its passes of the beams' Y power (W)
 };
 
 struct LightPlan {
@@ -216,11 +226,13 @@ public:
     // Irradiance (W/m², XYZ) of a film layer after the passes so far.
     std::vector<float> layerXyz(int layer) const;
     // Estimated mean Y power (W) on the sensor of a tally and its standard error, from the spread
-    // between its batches and passes (independent, identically distributed estimates).
+    // between its batches (independent, identically distributed estimates) and between its beams'
+    // replicates.
     double tallyPowerW(const PathTally& tally) const;
     double tallyStandardErrorW(const PathTally& tally) const;
     // The estimated relative L2 error (over pixels and RGB channels, as `flare compare`) of a
-    // variance group's image (RenderVarianceGroup), from the spread between passes; 0 before two.
+    // variance group's image (RenderVarianceGroup), from the spread between passes (or
+    // replicates); 0 before two passes (before every replicate has one).
     double estimatedRelativeError(int group) const;
 
     // Checkpoints (binary): the film, the tallies, the statistics and the number of passes done.
@@ -238,6 +250,10 @@ private:
     void traceBeam(BeamJob& job) const;
     void merge(const std::vector<BatchResult>& batches, const std::vector<BeamJob>& beams);
     std::uint64_t fingerprint() const;
+    // The beams a path draws in a pass: the floor of its rate, and one more with the probability
+    // of its fraction (a function of the seed, the pass and the path).
+    int beamCount(int pass, size_t light, int slot) const;
+    int replicateOfPass(int pass) const { return pass % options_.beamReplicates; }
 
     const LensSystem* lens_;
     RenderOptions options_;
@@ -256,6 +272,9 @@ private:
     Film film_;
     RenderStatistics statistics_;
     std::int64_t batchesDone_ = 0;
+    // Per light, per slot × replicate: the beams drawn so far, where the next pass's continue the
+    // replicate's sequence.
+    std::vector<std::vector<std::uint64_t>> beamsDrawn_;
 };
 
 }  // namespace flare

@@ -13,6 +13,7 @@ RenderOptions sceneRenderOptions(const Scene& scene, const LensSystem& lens, con
     options.seed = overrides.seed.value_or(scene.render.seed);
     options.maxBounces = overrides.maxBounces.value_or(scene.render.maxBounces);
     options.beamsPerPass = overrides.beamsPerPass.value_or(scene.render.beamsPerPass);
+    options.beamReplicates = overrides.beamReplicates;
     options.perGhostLayers = overrides.perGhostLayers;
     // The ghosts are the order-2 paths; a scene's ghost_order 4 asks for the order-4 chains to be
     // guided as well (in the `higher` layer).

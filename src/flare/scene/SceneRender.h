@@ -20,6 +20,7 @@ struct SceneRenderOverrides {
     std::optional<std::uint64_t> seed;
     std::optional<int> maxBounces;  // −1: unbounded
     std::optional<int> beamsPerPass;
+    int beamReplicates = 2;         // RenderOptions::beamReplicates
     bool perGhostLayers = false;
     // Auto guides the order-4 chains when the scene's ghost_order is 4, else leaves the choice to
     // the lens's reflectances (RenderOptions::HigherOrder::Auto).

@@ -4,6 +4,7 @@
 // the wide kernels added at the end of a pass and the adaptive kernel by power.
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
@@ -15,6 +16,7 @@
 
 #include "TestUtil.h"
 #include "flare/core/Random.h"
+#include "flare/core/Replicates.h"
 #include "flare/core/Spectrum.h"
 #include "flare/film/Film.h"
 #include "flare/optics/PupilGrid.h"
@@ -453,6 +455,98 @@ TEST(Film, VarianceIsTheSampleVarianceOfThePassImagesOverThePassCount) {
     EXPECT_GT(covered, 15);
 }
 
+// With K replicates the variance of the mean is the replicates' spread (core/Replicates.h):
+// Σ n_r (M_r − T)² / ((K − 1) P), M_r the mean of replicate r's n_r passes (pass p in replicate
+// p mod K) and T the mean of all P. Deterministic: pass p holds one photon of power x_p · w at a
+// pixel centre, x_p = 1, 4, 9, ... (P = 10 over K = 3: n = 4, 3, 3). Tolerance: a float rounding.
+TEST(Film, ReplicateVarianceIsTheSpreadOfTheReplicateMeans) {
+    const FilmSettings s = filmSettings(8, 8);
+    Film film(s, 1);
+    const int replicates = 3, passes = 10;
+    film.setReplicates(replicates);
+    EXPECT_EQ(film.replicates(), replicates);
+    const glm::dvec3 w(0.4, 0.3, 0.2);
+    double sum[replicates] = {}, total = 0.0;
+    int count[replicates] = {};
+    for (int pass = 0; pass < passes; ++pass) {
+        const double x = (1.0 + pass) * (1.0 + pass);
+        film.splat(0, sensorAt(s, 2.5, 5.5), x * w);
+        film.endPass(1);
+        sum[pass % replicates] += x, ++count[pass % replicates], total += x;
+        if (pass < replicates - 1) EXPECT_TRUE(film.varianceRgb().empty()) << "a replicate without a pass";
+    }
+    double spread = 0.0;
+    for (int r = 0; r < replicates; ++r) spread += count[r] * std::pow(sum[r] / count[r] - total / passes, 2);
+    const double varianceOfMean = spread / ((replicates - 1) * passes);
+    const glm::dvec3 g = xyzToLinearSrgb(w);
+    const std::vector<float> variance = film.varianceRgb();
+    const size_t pixel = (5 * 8 + 2) * 3;
+    for (int c = 0; c < 3; ++c) {
+        const double expected = std::pow(g[c] / pixelAreaM2(film), 2) * varianceOfMean;
+        EXPECT_NEAR(variance[pixel + c], expected, 1e-6 * expected) << "channel " << c;
+    }
+    double squaredNorm = 0.0;
+    for (int c = 0; c < 3; ++c) squaredNorm += std::pow(g[c] / pixelAreaM2(film) * total / passes, 2);
+    const Film::ErrorEstimate e = film.errorEstimate(0);
+    EXPECT_NEAR(e.squaredNorm, squaredNorm, 1e-9 * squaredNorm);
+    EXPECT_NEAR(e.sumVariance, (variance[pixel] + variance[pixel + 1] + variance[pixel + 2]), 1e-6 * e.sumVariance);
+    EXPECT_THROW(film.setReplicates(2), std::logic_error) << "after the first pass";
+    Film other(s, 1);
+    EXPECT_THROW(other.setReplicates(1), std::invalid_argument);
+    EXPECT_THROW(other.setReplicates(kMaxReplicates + 1), std::invalid_argument);
+}
+
+// Why replicates: passes that continue a stratified sequence are correlated, and the spread of
+// the passes overstates the error of their mean many times over. Each trial runs two replicates,
+// each a van der Corput sequence rotated by its own uniform shift (a randomised quasi-random
+// sequence, like the beams'), one photon of power f(x) = x² per pass. Over many trials the mean
+// of the replicate estimate must equal the variance of the trials' means (a z-test whose
+// standard error comes from both samples' own spread), while the pass-spread estimate of the
+// same passes is refused (it is more than 5× too large).
+TEST(Film, ReplicatesEstimateTheVarianceOfCorrelatedPasses) {
+    const FilmSettings s = filmSettings(4, 4);
+    const int trials = 4000, passes = 16, replicates = 2;
+    const glm::dvec3 w(0.2, 0.3, 0.1);
+    const size_t pixel = (1 * 4 + 1) * 3 + 1;  // the green channel of pixel (1, 1)
+    auto vanDerCorput = [](unsigned j) {
+        double x = 0.0, digit = 0.5;
+        for (; j; j >>= 1, digit *= 0.5) x += (j & 1u) * digit;
+        return x;
+    };
+    Rng rng(77, 3);
+    std::vector<double> means, estimates, passEstimates;
+    for (int trial = 0; trial < trials; ++trial) {
+        Film film(s, 1), byPasses(s, 1);
+        film.setReplicates(replicates);
+        const double shift[replicates] = {rng.uniform(), rng.uniform()};
+        for (int pass = 0; pass < passes; ++pass) {
+            const double x = std::fmod(vanDerCorput(static_cast<unsigned>(pass / replicates)) + shift[pass % replicates], 1.0);
+            for (Film* f : {&film, &byPasses}) {
+                f->splat(0, sensorAt(s, 1.5, 1.5), x * x * w);
+                f->endPass(1);
+            }
+        }
+        const std::vector<float> xyz = film.irradianceXyz(0, passes);
+        means.push_back(xyzToLinearSrgb({xyz[pixel - 1], xyz[pixel], xyz[pixel + 1]}).y);
+        estimates.push_back(film.varianceRgb()[pixel]);
+        passEstimates.push_back(byPasses.varianceRgb()[pixel]);
+    }
+    auto meanOf = [](const std::vector<double>& v) { return std::accumulate(v.begin(), v.end(), 0.0) / v.size(); };
+    const double m = meanOf(means);
+    double m2 = 0.0, m4 = 0.0;
+    for (double v : means) m2 += std::pow(v - m, 2), m4 += std::pow(v - m, 4);
+    m2 /= trials - 1;
+    m4 /= trials;
+    const double trueVariance = m2, trueVarianceError = std::sqrt((m4 - m2 * m2) / trials);
+    const double estimated = meanOf(estimates);
+    double e2 = 0.0;
+    for (double v : estimates) e2 += std::pow(v - estimated, 2);
+    const double estimatedError = std::sqrt(e2 / (trials - 1) / trials);
+    const double z = (estimated - trueVariance) / std::hypot(estimatedError, trueVarianceError);
+    EXPECT_LT(std::abs(z), 4.0) << "estimated " << estimated << ", true " << trueVariance;
+    EXPECT_GT(meanOf(passEstimates), 5.0 * trueVariance) << "the pass spread should overstate correlated passes";
+}
+
 // Random photons over and around a film, in two layers, some outside the total.
 void randomPass(Film& film, Rng& rng, int photons) {
     const FilmSettings& s = film.settings();
@@ -503,6 +597,35 @@ TEST(Film, CheckpointRoundTripIsExactAndTheRenderContinuesIdentically) {
         randomPass(original, a, 400);
         randomPass(restored, b, 400);
         expectSameFilm(original, restored);
+    }
+}
+
+// Replicates' sums are part of the checkpoint: a film resumed from one continues identically,
+// and a film with another replicate count refuses it.
+TEST(Film, ReplicatesSurviveACheckpoint) {
+    const FilmSettings s = filmSettings(40, 35, Kernel::Fixed, 2.5);
+    Film original(s, 2);
+    original.setReplicates(3);
+    Rng rng(58, 0);
+    for (int pass = 0; pass < 4; ++pass) randomPass(original, rng, 300);
+    const std::string bytes = saved(original);
+    Film restored(s, 2);
+    restored.setReplicates(3);
+    std::istringstream in(bytes);
+    restored.load(in);
+    expectSameFilm(original, restored);
+    Rng a(59, 0), b(59, 0);
+    for (int pass = 0; pass < 2; ++pass) {
+        randomPass(original, a, 300);
+        randomPass(restored, b, 300);
+    }
+    expectSameFilm(original, restored);
+    EXPECT_EQ(original.errorEstimate(0).sumVariance, restored.errorEstimate(0).sumVariance);
+    for (int replicates : {0, 2}) {
+        Film other(s, 2);
+        if (replicates) other.setReplicates(replicates);
+        std::istringstream again(bytes);
+        EXPECT_THROW(other.load(again), std::runtime_error) << replicates << " replicates";
     }
 }
 
@@ -580,7 +703,7 @@ TEST(Film, ALayerCanHaveItsOwnAdaptiveKernel) {
 
 // A checkpoint whose sum tile is present but whose sum-of-squares tile is absent must be refused
 // (it used to load, and varianceRgb() then dereferenced a missing tile). The byte layout below is
-// Film::save's (magic, six int32, per layer its kernel (two int32 and a double), then per tile a
+// Film::save's (magic, seven int32, per layer its kernel (two int32 and a double), then per tile a
 // flag byte and 32 × 32 × 3 doubles).
 TEST(Film, LoadRejectsAnInconsistentCheckpoint) {
     const FilmSettings s = filmSettings(32, 32);  // a single tile, Fixed kernel (no counts)
@@ -591,7 +714,7 @@ TEST(Film, LoadRejectsAnInconsistentCheckpoint) {
     }
     std::string bytes = saved(original);
     const size_t tileBytes = 32 * 32 * 3 * sizeof(double);
-    ASSERT_EQ(bytes.size(), 8 + 6 * 4 + (4 + 4 + 8 + 1) + 3 * (1 + tileBytes));
+    ASSERT_EQ(bytes.size(), 8 + 7 * 4 + (4 + 4 + 8 + 1) + 3 * (1 + tileBytes));
     bytes.resize(bytes.size() - tileBytes);  // drop the sum-of-squares tile ...
     bytes.back() = 0;                        // ... and mark it absent
     Film restored(s, 1);

@@ -18,6 +18,7 @@
 #include <tbb/global_control.h>
 
 #include "flare/core/Error.h"
+#include "flare/core/Replicates.h"
 #include "flare/core/Spectrum.h"
 #include "flare/ghosts/Ghosts.h"
 #include "flare/ghosts/Preview.h"
@@ -188,15 +189,27 @@ TEST(Render, ForcedSequenceAgreesWithThePreview) {
 }
 
 // Per-block statistics of a layer's Y irradiance over passes. The film holds the running mean
-// of the passes, so pass p's own image is p·mean_p − (p−1)·mean_{p−1}; its block sums are i.i.d.
-// over passes (each pass draws fresh photons and a fresh scrambling of the beams' point set), so
-// their spread gives each block's standard error, with the correlation between a block's pixels
-// included (a beam or a photon kernel covers several pixels at once).
+// of the passes, so pass p's own image is p·mean_p − (p−1)·mean_{p−1}. Photon passes are i.i.d.
+// (fresh photons each); a beam render's passes are i.i.d. only across its replicates (each
+// continues its own Sobol' sequences), so each block's standard error comes from the spread of
+// the passes, or of the replicates' means (core/Replicates.h), with the correlation between a
+// block's pixels included (a beam or a photon kernel covers several pixels at once).
 struct BlockStatistics {
     int blocksX = 0, blocksY = 0, passes = 0;
-    std::vector<double> sum, sumSquares;
-    double mean(int b) const { return sum[b] / passes; }
+    int replicates = 0;                       // 0: independent passes
+    std::vector<std::vector<double>> sums;    // per pass (or replicate): each block's Σ
+    std::vector<double> sumSquares;           // independent passes: each block's Σ of squares
+    double mean(int b) const {
+        double total = 0.0;
+        for (const std::vector<double>& s : sums) total += s[b];
+        return total / passes;
+    }
     double standardError(int b) const {
+        if (replicates > 0) {
+            std::vector<double> bySum(replicates);
+            for (int r = 0; r < replicates; ++r) bySum[r] = sums[r][b];
+            return std::sqrt(replicateVarianceOfMean(bySum.data(), replicates, passes));
+        }
         const double m = mean(b);
         return std::sqrt(std::max(0.0, (sumSquares[b] / passes - m * m) / (passes - 1)));
     }
@@ -207,19 +220,22 @@ BlockStatistics runRecordingBlocks(Renderer& r, int passes, int layer, int block
     BlockStatistics s;
     s.blocksX = w / blockPx;
     s.blocksY = h / blockPx;
-    s.sum.assign(s.blocksX * s.blocksY, 0.0);
-    s.sumSquares = s.sum;
-    std::vector<double> previous(s.sum.size(), 0.0);
+    s.replicates = r.film().replicates();
+    const size_t blocks = static_cast<size_t>(s.blocksX) * s.blocksY;
+    s.sums.assign(s.replicates > 0 ? s.replicates : 1, std::vector<double>(blocks, 0.0));
+    s.sumSquares.assign(blocks, 0.0);
+    std::vector<double> previous(blocks, 0.0);
     for (int p = 1; p <= passes; ++p) {
         r.runPass();
         const std::vector<float> xyz = r.layerXyz(layer);
-        std::vector<double> cumulative(s.sum.size(), 0.0);
+        std::vector<double> cumulative(blocks, 0.0);
         for (int y = 0; y < s.blocksY * blockPx; ++y)
             for (int x = 0; x < s.blocksX * blockPx; ++x)
                 cumulative[(y / blockPx) * s.blocksX + x / blockPx] += p * static_cast<double>(xyz[3 * (y * w + x) + 1]);
-        for (size_t b = 0; b < s.sum.size(); ++b) {
+        std::vector<double>& sum = s.sums[s.replicates > 0 ? (p - 1) % s.replicates : 0];
+        for (size_t b = 0; b < blocks; ++b) {
             const double own = cumulative[b] - previous[b];
-            s.sum[b] += own;
+            sum[b] += own;
             s.sumSquares[b] += own * own;
         }
         previous = cumulative;
@@ -232,10 +248,10 @@ BlockStatistics runRecordingBlocks(Renderer& r, int passes, int layer, int block
 // many blocks that is.
 std::pair<double, int> largestBlockDeviation(const BlockStatistics& a, const BlockStatistics& b, double minShare) {
     double total = 0.0;
-    for (size_t i = 0; i < a.sum.size(); ++i) total += a.mean(static_cast<int>(i));
+    for (size_t i = 0; i < a.sumSquares.size(); ++i) total += a.mean(static_cast<int>(i));
     double worst = 0.0;
     int blocks = 0;
-    for (int i = 0; i < static_cast<int>(a.sum.size()); ++i) {
+    for (int i = 0; i < static_cast<int>(a.sumSquares.size()); ++i) {
         if (a.mean(i) < minShare * total) continue;
         const double sigma = std::hypot(a.standardError(i), b.standardError(i));
         if (sigma <= 0.0) continue;
@@ -258,9 +274,12 @@ TEST(Render, BeamImageAgreesWithGuidedPhotonsBlockByBlock) {
     const int blockPx = 6;
     Renderer photons(lens, scene.lights, optionsFor(scene, lens, RenderOptions::Mode::GuidedPhotons));
     const BlockStatistics p = runRecordingBlocks(photons, 200, kLayerGhost, blockPx);
-    Renderer beams(lens, scene.lights, optionsFor(scene, lens, RenderOptions::Mode::Guided));
+    // Eight replicates of five passes: the beams' block errors from seven degrees of freedom.
+    RenderOptions beamOptions = optionsFor(scene, lens, RenderOptions::Mode::Guided);
+    beamOptions.beamReplicates = 8;
+    Renderer beams(lens, scene.lights, beamOptions);
     const BlockStatistics b = runRecordingBlocks(beams, 40, kLayerGhost, blockPx);
-    RenderOptions shiftedOptions = optionsFor(scene, lens, RenderOptions::Mode::Guided);
+    RenderOptions shiftedOptions = beamOptions;
     shiftedOptions.testBeamShiftPx = 3.0;
     Renderer shifted(lens, scene.lights, shiftedOptions);
     const BlockStatistics s = runRecordingBlocks(shifted, 40, kLayerGhost, blockPx);
@@ -274,15 +293,15 @@ TEST(Render, BeamImageAgreesWithGuidedPhotonsBlockByBlock) {
     EXPECT_GT(worstShifted, z) << "a beam image moved by 3 px went unnoticed";
 }
 
-// The render's own error estimate (what `--target-error` stops on) is the spread of its passes:
-// Σ over pixels and RGB of the per-pass images' sample variance / P. It is honest if the passes
-// are independent; passes that shared random numbers (a point set not re-scrambled, a stream
-// reused) would agree too well and the estimate would be too small. One render's passes are cut
-// into groups of P, and for consecutive pairs of groups (A, B), independent renders of P passes
-// each, E‖A − B‖² = Var A + Var B: the differences d = ‖A − B‖² − (est A + est B) have mean zero,
-// which a t-test over the pairs checks (its tolerance from their own spread). The test must also
-// refuse an estimate of half the true error. Finally the film's own estimate after all passes is
-// the same sum computed here.
+// The render's own error estimate (what `--target-error` stops on) is, with beams, the spread of
+// its replicates: each replicate continues its own scrambled Sobol' sequences from pass to pass,
+// so passes are correlated within a replicate and independent across them (core/Replicates.h).
+// It is honest if E‖A − B‖² = Var A + Var B for independent renders A and B (seeds 2k + 1 and
+// 2k + 2): the differences d = ‖A − B‖² − (est A + est B) have mean zero, which a t-test over the
+// pairs checks (its tolerance from their own spread). The test must also refuse an estimate of
+// half the true error, and the estimate the independent-pass formula would give (the sample
+// variance of the pass images over P), which the passes' correlation makes several times too
+// large. Finally the film's estimate is recomputed here from the replicates' pass images.
 TEST(Render, EstimatedErrorIsHonest) {
     const Scene scene = doubletScene();
     const LensSystem lens = buildSceneLens(scene);
@@ -292,42 +311,51 @@ TEST(Render, EstimatedErrorIsHonest) {
     // not depend on the layer being complete).
     o.unguidedShare = 0.0;
     o.beamsPerPass = 12;
-    Renderer r(lens, scene.lights, o);
+    o.beamReplicates = 2;
+    o.batchesPerPass = 1;
+    o.higherOrder = RenderOptions::HigherOrder::Off;  // 80 renders: no order-4 analysis each
     const int pairs = 40, passes = 4;
     const size_t values = 3 * static_cast<size_t>(o.film.widthPx) * o.film.heightPx;
-    std::vector<double> previous(values, 0.0), allSum(values, 0.0), allSquares(values, 0.0);
-    std::vector<double> d, dHalf;
-    int done = 0;
+    std::vector<double> d, dHalf, dPasses;
     for (int k = 0; k < pairs; ++k) {
-        std::vector<double> mean[2];
-        double estimated = 0.0;
+        std::vector<double> image[2];
+        double estimated = 0.0, byPasses = 0.0;
         for (int member = 0; member < 2; ++member) {
-            std::vector<double> sum(values, 0.0), squares(values, 0.0);
+            o.seed = 2 * k + 1 + member;
+            Renderer r(lens, scene.lights, o);
+            std::vector<double> previous(values, 0.0), sum(values, 0.0), squares(values, 0.0);
+            std::vector<double> replicateSum[2] = {std::vector<double>(values, 0.0), std::vector<double>(values, 0.0)};
             for (int p = 0; p < passes; ++p) {
                 r.runPass();
-                ++done;
                 const std::vector<float> xyz = r.layerXyz(kLayerGhost);
                 for (size_t i = 0; i < values; i += 3) {
                     const glm::dvec3 c = xyzToLinearSrgb({xyz[i], xyz[i + 1], xyz[i + 2]});
                     for (int ch = 0; ch < 3; ++ch) {
-                        const double cumulative = done * c[ch];  // the film holds the running mean
+                        const double cumulative = (p + 1) * c[ch];  // the film holds the running mean
                         const double own = cumulative - previous[i + ch];
                         previous[i + ch] = cumulative;
                         sum[i + ch] += own, squares[i + ch] += own * own;
-                        allSum[i + ch] += own, allSquares[i + ch] += own * own;
+                        replicateSum[p % 2][i + ch] += own;
                     }
                 }
             }
-            mean[member].resize(values);
+            double ownEstimate = 0.0;
+            image[member].resize(values);
             for (size_t i = 0; i < values; ++i) {
-                mean[member][i] = sum[i] / passes;
-                estimated += (squares[i] - sum[i] * sum[i] / passes) / (passes - 1) / passes;
+                image[member][i] = sum[i] / passes;
+                byPasses += (squares[i] - sum[i] * sum[i] / passes) / (passes - 1) / passes;
+                // Two replicates of equal size: Var(mean) = (M₀ − M₁)² / 4.
+                ownEstimate += std::pow((replicateSum[0][i] - replicateSum[1][i]) / (passes / 2), 2) / 4.0;
             }
+            const double film = r.film().errorEstimate(kGroupGhost).sumVariance;
+            EXPECT_NEAR(film, ownEstimate, 1e-3 * ownEstimate) << "seed " << o.seed;
+            estimated += film;
         }
         double squared = 0.0;
-        for (size_t i = 0; i < values; ++i) squared += std::pow(mean[0][i] - mean[1][i], 2);
+        for (size_t i = 0; i < values; ++i) squared += std::pow(image[0][i] - image[1][i], 2);
         d.push_back(squared - estimated);
         dHalf.push_back(squared - 0.25 * estimated);
+        dPasses.push_back(squared - byPasses);
     }
     auto tStatistic = [](const std::vector<double>& x) {
         double mean = 0.0, squares = 0.0;
@@ -340,10 +368,7 @@ TEST(Render, EstimatedErrorIsHonest) {
     const double critical = boost::math::quantile(boost::math::complement(t, 0.5e-3));  // two-sided 1e-3
     EXPECT_LT(std::abs(tStatistic(d)), critical);
     EXPECT_GT(tStatistic(dHalf), critical) << "an estimate of half the true error went unnoticed";
-
-    double all = 0.0;
-    for (size_t i = 0; i < values; ++i) all += (allSquares[i] - allSum[i] * allSum[i] / done) / (done - 1) / done;
-    EXPECT_NEAR(r.film().errorEstimate(kGroupGhost).sumVariance, all, 1e-3 * all);
+    EXPECT_LT(tStatistic(dPasses), -critical) << "the passes' spread should overstate the error of correlated passes";
 }
 
 // Order-4 chains are analysed only up to maxAnalysedChains: with more, Auto leaves them to the
@@ -399,6 +424,7 @@ TEST(Render, BeamsAgreeWithGuidedPhotonsAndNaiveOnTheUncoatedDoubleGauss) {
     const LensSystem lens = buildSceneLens(scene);
     RenderOptions beamOptions = optionsFor(scene, lens, RenderOptions::Mode::Guided);
     beamOptions.beamsPerPass = 256;  // ~50 ghosts and 512 chains: enough beams for per-ghost errors
+    beamOptions.beamReplicates = 12;  // five passes each: per-ghost errors from 11 degrees of freedom
     Renderer beams(lens, scene.lights, beamOptions);
     ASSERT_TRUE(beams.lights().front().higherOrderGuided);  // uncoated: order-4 chains are guided
     Renderer photons(lens, scene.lights, optionsFor(scene, lens, RenderOptions::Mode::GuidedPhotons));
@@ -526,19 +552,19 @@ TEST(Render, CheckpointWithANonFiniteValueIsRefused) {
     const std::string good((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     in.close();
 
-    // The checkpoint: a 3-word header, the statistics, four doubles per tally (the batches' and
-    // the passes' sums and sums of squares), then the film (a magic word, six int32: width,
-    // height, ...; per layer its kernel (two int32 and a double); and per tile a presence byte
-    // followed by its doubles).
+    // The checkpoint: a 3-word header, the statistics, per tally the batches' sum and sum of
+    // squares and the replicates' sums (kMaxReplicates doubles), then the film (a magic word,
+    // seven int32: width, height, ...; per layer its kernel (two int32, a double and a byte); and
+    // per tile a presence byte followed by its doubles).
     const size_t tallies = 3 * sizeof(std::uint64_t) + sizeof(RenderStatistics);
-    const size_t film = tallies + 4 * sizeof(double) *
+    const size_t film = tallies + (2 + kMaxReplicates) * sizeof(double) *
                                       (first.tallies().size() + first.layerTallies().size() + first.scatterSourceTallies().size());
     std::int32_t size[2];
     std::memcpy(size, good.data() + film + sizeof(std::uint64_t), sizeof size);
     ASSERT_EQ(size[0], o.film.widthPx) << "the film is not where this test expects it";
     ASSERT_EQ(size[1], o.film.heightPx);
-    size_t tile = film + sizeof(std::uint64_t) + 6 * sizeof(std::int32_t) +
-                  first.film().layerCount() * (2 * sizeof(std::int32_t) + sizeof(double));
+    size_t tile = film + sizeof(std::uint64_t) + 7 * sizeof(std::int32_t) +
+                  first.film().layerCount() * (2 * sizeof(std::int32_t) + sizeof(double) + 1);
     while (tile < good.size() && good[tile] == 0) ++tile;  // the first tile present
     ASSERT_LT(tile + sizeof(double), good.size());
     for (const auto& [offset, value] : {std::pair{tallies, std::nan("")}, std::pair{tile + 1, HUGE_VAL}}) {
