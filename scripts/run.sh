@@ -14,7 +14,7 @@ sed -n '1,20p' out/default-ghosts.txt
 build/src/flare ghosts docs/examples/default.json --json > out/default-ghosts.json
 build/src/flare preview -o out/default.exr --png out/default.png
 # To the default target (2 % estimated error of the flare without the direct image), at most 60 s:
-# the ghosts reach it in about 10 s; the scattered light (the `scatter` layer) does not yet.
+# about 23 s of passes on two cores (docs/BENCHMARKS.md).
 build/src/flare render --time 60 -o out/default-render.exr --png out/default-render.png --report out/default-render.json
 build/src/flare lens draw double-gauss-50mm -o out/double-gauss-50mm.svg --rays 11
 echo

@@ -122,7 +122,7 @@ void writeExr(const std::string& path, const std::vector<ImageLayer>& layers,
     const int width = layers[0].width, height = layers[0].height;
 
     Imf::Header header(width, height);
-    header.compression() = Imf::ZIP_COMPRESSION;
+    header.compression() = options.compression == ExrCompression::Piz ? Imf::PIZ_COMPRESSION : Imf::ZIP_COMPRESSION;
     Imf::addChromaticities(
         header, Imf::Chromaticities(Imath::V2f(kRec709RedXy[0], kRec709RedXy[1]),
                                     Imath::V2f(kRec709GreenXy[0], kRec709GreenXy[1]),
@@ -175,8 +175,8 @@ void writeExr(const std::string& path, const std::vector<ImageLayer>& layers,
         }
     }
 
-    // ZIP compression dominates writing many layers (the per-ghost ones); OpenEXR compresses
-    // blocks of scanlines in parallel once given threads, with the same bytes as one thread.
+    // Compression dominates writing many layers (the per-ghost ones); OpenEXR compresses blocks
+    // of scanlines in parallel once given threads, with the same bytes as one thread.
     if (Imf::globalThreadCount() == 0)
         Imf::setGlobalThreadCount(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
     const std::string partial = path + ".partial";

@@ -42,11 +42,18 @@ enum class ExrStorage : std::uint8_t {
 // precision (2⁻¹¹) holds.
 bool fitsHalf(const ImageLayer& layer);
 
+// The EXR's lossless compression. ZIP suits smooth images (the preview's, with many mostly empty
+// per-ghost layers: 86 MB against PIZ's 138 MB for the default scene); PIZ (a wavelet transform
+// and Huffman coding) suits grainy ones, where it is both smaller and faster (the default
+// render's layers: 57 MB in 0.5 s against ZIP's 72 MB in 1.0 s on two cores).
+enum class ExrCompression : std::uint8_t { Zip, Piz };
+
 struct ExrWriteOptions {
     std::map<std::string, ExrStorage> storage;  // by layer name; layers not named are Float
+    ExrCompression compression = ExrCompression::Zip;
 };
 
-// Writes the layers (all of one size) as a ZIP-compressed EXR, 32-bit float unless options say
+// Writes the layers (all of one size) as a losslessly compressed EXR, 32-bit float unless options say
 // otherwise, with the standard `chromaticities` attribute (Rec.709 primaries, D65 white) and each
 // metadata pair as a string attribute. Throws std::logic_error for malformed input (mismatched
 // sizes, duplicate layer names, a metadata key that is a standard attribute, any NaN or infinity,

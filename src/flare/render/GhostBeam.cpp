@@ -200,7 +200,6 @@ GhostBeam GhostBeam::build(const BundleTracer& tracer, const PupilGrid& grid, co
             }
     }
     beam.bucketByBand();
-    beam.index();
     return beam;
 }
 
@@ -209,7 +208,6 @@ GhostBeam GhostBeam::fromTriangles(std::vector<BeamTriangle> triangles, const Fi
     beam.frame_ = frame;
     beam.triangles_ = std::move(triangles);
     beam.bucketByBand();
-    beam.index();
     return beam;
 }
 
@@ -223,18 +221,25 @@ void GhostBeam::bucketByBand() {
         const int last = std::clamp(static_cast<int>(std::floor(hi / Film::kBandRows)), 0, bands - 1);
         return std::pair{first, last};
     };
+    // Sorted by first band (stably), then listed in every band they may touch, in that order.
     std::vector<int> counts(bands + 1, 0);
-    maxBandSpan_ = 0;
+    for (const BeamTriangle& t : triangles_) ++counts[bandRange(t).first + 1];
+    for (int b = 0; b < bands; ++b) counts[b + 1] += counts[b];
+    std::vector<BeamTriangle> sorted(triangles_.size());
+    for (const BeamTriangle& t : triangles_) sorted[counts[bandRange(t).first]++] = t;
+    triangles_.swap(sorted);
+    bandStart_.assign(bands + 1, 0);
     for (const BeamTriangle& t : triangles_) {
         const auto [first, last] = bandRange(t);
-        ++counts[first + 1];
-        maxBandSpan_ = std::max(maxBandSpan_, last - first);
+        for (int b = first; b <= last; ++b) ++bandStart_[b + 1];
     }
-    for (int b = 0; b < bands; ++b) counts[b + 1] += counts[b];
-    bandStart_ = counts;
-    std::vector<BeamTriangle> sorted(triangles_.size());
-    for (const BeamTriangle& t : triangles_) sorted[counts[bandRange(t).first]++] = t;  // stable
-    triangles_.swap(sorted);
+    for (int b = 0; b < bands; ++b) bandStart_[b + 1] += bandStart_[b];
+    bandTriangles_.resize(bandStart_[bands]);
+    std::vector<int> next(bandStart_.begin(), bandStart_.end() - 1);
+    for (int n = 0; n < static_cast<int>(triangles_.size()); ++n) {
+        const auto [first, last] = bandRange(triangles_[n]);
+        for (int b = first; b <= last; ++b) bandTriangles_[next[b]++] = n;
+    }
 }
 
 void GhostBeam::index() {
@@ -298,6 +303,9 @@ const BeamTriangle* GhostBeam::locate(const glm::dvec2& u, double* b1, double* b
 }
 
 bool GhostBeam::twin(const glm::dvec2& pupilMm, BeamTwin* out) const {
+    // The point location grid is built by the first twin: renders without correction photons
+    // never need it.
+    std::call_once(*indexOnce_, [this] { const_cast<GhostBeam*>(this)->index(); });
     double l1 = 0.0, l2 = 0.0;
     const BeamTriangle* t = locate(pupilMm, &l1, &l2);
     if (!t) return false;
@@ -332,6 +340,11 @@ double GhostBeam::powerOnSensor() const {
         }
         // The image (with its irradiance, or throughput for a small one) clipped by the sensor's
         // four sides, integrated exactly (linear over each fan triangle).
+        if (inside && !t.small) {
+            const glm::dvec3 a(t.pixel[0], t.irradiance[0]), b(t.pixel[1], t.irradiance[1]), c(t.pixel[2], t.irradiance[2]);
+            total += std::abs(signedArea(a, b, c)) * (a.z + b.z + c.z) / 3.0;
+            continue;
+        }
         std::vector<glm::dvec3> polygon;
         for (int k = 0; k < 3; ++k) polygon.emplace_back(t.pixel[k], t.small ? t.throughput[k] : t.irradiance[k]);
         if (!inside) {
@@ -380,7 +393,8 @@ void GhostBeam::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3
     const int rowLo = std::max(rowBegin, static_cast<int>(std::ceil(-0.5 - jitterPx.y)));
     const int rowHi = std::min(rowEnd - 1, static_cast<int>(std::ceil(height - 0.5 - jitterPx.y)) - 1);
 
-    for (int n = bandStart_[std::max(0, band - maxBandSpan_)]; n < bandStart_[band + 1]; ++n) {
+    for (int k = bandStart_[band]; k < bandStart_[band + 1]; ++k) {
+        const int n = bandTriangles_[k];
         const BeamTriangle& t = triangles_[n];
         if (t.small) {
             // Its power over points spread evenly over its image (a Fibonacci lattice on the unit
@@ -434,12 +448,16 @@ void GhostBeam::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3
         int order[3] = {0, 1, 2};
         std::sort(order, order + 3, [&](int a, int b) { return v[a].y < v[b].y; });
         const glm::dvec2 top = v[order[0]], mid = v[order[1]], bottom = v[order[2]];
+        // The edges' x per unit y (a scanline crosses the upper short edge only if it is not
+        // horizontal, and likewise the lower).
+        const double longSlope = (bottom.x - top.x) / (bottom.y - top.y);
+        const double upperSlope = mid.y > top.y ? (mid.x - top.x) / (mid.y - top.y) : 0.0;
+        const double lowerSlope = bottom.y > mid.y ? (bottom.x - mid.x) / (bottom.y - mid.y) : 0.0;
         for (int row = first; row <= last; ++row) {
             const double y = row + 0.5;
             // The long edge top→bottom, and the short edge the scanline crosses.
-            const double along = top.x + (y - top.y) * (bottom.x - top.x) / (bottom.y - top.y);
-            const double across = y < mid.y ? top.x + (y - top.y) * (mid.x - top.x) / (mid.y - top.y)
-                                            : mid.x + (y - mid.y) * (bottom.x - mid.x) / (bottom.y - mid.y);
+            const double along = top.x + (y - top.y) * longSlope;
+            const double across = y < mid.y ? top.x + (y - top.y) * upperSlope : mid.x + (y - mid.y) * lowerSlope;
             const double xl = std::min(along, across), xr = std::max(along, across);
             const int c1 = std::max(columnLo, static_cast<int>(std::ceil(xl - 0.5)));
             const int c2 = std::min(columnHi, static_cast<int>(std::ceil(xr - 0.5)) - 1);

@@ -29,6 +29,8 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
+#include <mutex>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -123,10 +125,10 @@ private:
     double bucketMm_ = 1.0;
     int bucketsA_ = 0, bucketsB_ = 0;
     std::vector<int> bucketStart_, bucketTriangles_;
-    // Triangles sorted by the film band of their first row (jitter included): band b's triangles
-    // start in the bands [b − maxBandSpan_, b].
-    std::vector<int> bandStart_;
-    int maxBandSpan_ = 0;
+    std::unique_ptr<std::once_flag> indexOnce_ = std::make_unique<std::once_flag>();  // (movable)
+    // Triangles sorted by the film band of their first row (jitter included); band b's, in that
+    // order, are bandTriangles_[bandStart_[b] .. bandStart_[b + 1]).
+    std::vector<int> bandStart_, bandTriangles_;
 };
 
 // A draw from the tent (the film's 1-px kernel) in each axis, from two uniforms in [0, 1).

@@ -88,6 +88,29 @@ TEST_F(ImageIOTest, ExrRoundTripsLayersExactlyWithNamesAndMetadata) {
     EXPECT_EQ(file.header().channels().findChannel("ghosts.G")->type, Imf::FLOAT);
 }
 
+// PIZ (what renders write) is lossless too, for float and half-precision layers alike.
+TEST_F(ImageIOTest, PizRoundTripsExactly) {
+    ImageLayer grain{"grain", 37, 21, std::vector<float>(37 * 21 * 3)};
+    std::uint32_t state = 12345;
+    for (float& v : grain.rgb) {
+        state = state * 1664525u + 1013904223u;
+        v = static_cast<float>(state >> 8) * 1e-9f;
+    }
+    const std::vector<ImageLayer> layers = {makeLayer("", 37, 21, 0.25f), grain};
+    ExrWriteOptions options;
+    options.compression = ExrCompression::Piz;
+    options.storage["grain"] = ExrStorage::FloatHalfPrecision;
+    writeExr(path("piz.exr"), layers, {}, options);
+    options.compression = ExrCompression::Zip;
+    writeExr(path("zip.exr"), layers, {}, options);
+    const std::vector<ImageLayer> back = readExr(path("piz.exr")), zip = readExr(path("zip.exr"));
+    ASSERT_EQ(back.size(), 2u);
+    EXPECT_EQ(back[0].rgb, layers[0].rgb);
+    EXPECT_EQ(back[1].rgb, zip[1].rgb);
+    EXPECT_NE(back[1].rgb, grain.rgb) << "rounded to half's precision";
+    EXPECT_EQ(Imf::InputFile(path("piz.exr").c_str()).header().compression(), Imf::PIZ_COMPRESSION);
+}
+
 TEST_F(ImageIOTest, HalfAndHalfPrecisionLayersKeepElevenSignificantBits) {
     // A weak layer, 1e-12 to 1e-6 (below half's normal range), and one within half's range.
     ImageLayer wide{"wide", 8, 4, std::vector<float>(8 * 4 * 3)};
