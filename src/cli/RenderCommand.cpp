@@ -102,6 +102,10 @@ nlohmann::json reportJson(const Renderer& renderer, const Scene& scene, const Le
     // (as `flare compare` measures it against a reference), and the largest share of the layer's
     // power one photon carried (a firefly shows as a share far above 1 / photons).
     nlohmann::json layers;
+    // No estimate yet (fewer than two passes, or a replicate without a pass): null, not 0.
+    auto estimate = [&](int group) -> nlohmann::json {
+        return renderer.hasErrorEstimate() ? nlohmann::json(renderer.estimatedRelativeError(group)) : nlohmann::json();
+    };
     const double drawn = static_cast<double>(s.passes) * renderer.options().photonsPerPass();
     for (int l = 0; l < kFixedLayerCount; ++l) {
         const PathTally& t = renderer.layerTallies()[l];
@@ -109,13 +113,16 @@ nlohmann::json reportJson(const Renderer& renderer, const Scene& scene, const Le
         layers[kindName(t.kind)] = {
             {"power_w", power},
             {"standard_error_w", renderer.tallyStandardErrorW(t)},
-            {"estimated_relative_error", renderer.estimatedRelativeError(kGroupDirect + l)},
+            {"estimated_relative_error", estimate(kGroupDirect + l)},
             {"largest_photon_share", power > 0.0 && drawn > 0.0 ? s.largestPhotonY[l] / (drawn * power) : 0.0}};
     }
     j["layers"] = layers;
-    j["flare_estimated_relative_error"] = renderer.estimatedRelativeError(kGroupFlare);
+    j["flare_estimated_relative_error"] = estimate(kGroupFlare);
     j["target_error"] = o.targetError;
-    j["beams"] = {{"beams", s.beams}, {"traced_rays", s.beamRays}, {"correction_photons", s.correctionPhotons}};
+    j["beams"] = {{"beams", s.beams},
+                  {"traced_rays", s.beamRays},
+                  {"correction_photons", s.correctionPhotons},
+                  {"replicates", renderer.film().replicates()}};
     nlohmann::json sources;
     for (size_t i = 0; i < renderer.scatterSourceTallies().size(); ++i) {
         const PathTally& t = renderer.scatterSourceTallies()[i];
@@ -165,14 +172,15 @@ nlohmann::json reportJson(const Renderer& renderer, const Scene& scene, const Le
 }
 
 // The share of the work done, whichever limit comes first: the photon count, the time, or the
-// target error (whose square falls as one over the passes).
+// target error (whose square falls as one over the passes for photons, faster for beams: the time
+// left is then an upper bound).
 double progressFraction(const Renderer& renderer, std::int64_t photonLimit, double timeLimitS, double targetError,
                         double elapsedS) {
     const RenderStatistics& s = renderer.statistics();
     double fraction = photonLimit > 0 ? static_cast<double>(s.photons) / photonLimit : 0.0;
     if (timeLimitS > 0.0) fraction = std::max(fraction, elapsedS / timeLimitS);
     const double error = renderer.estimatedRelativeError(kGroupFlare);
-    if (targetError > 0.0 && error > 0.0 && s.passes >= 2)
+    if (targetError > 0.0 && error > 0.0 && renderer.hasErrorEstimate())
         fraction = std::max(fraction, std::min(1.0, (targetError * targetError) / (error * error)) *
                                           std::min(1.0, s.passes / static_cast<double>(kMinPassesToStop)));
     return std::min(fraction, 1.0);
@@ -184,8 +192,8 @@ void printProgress(const Renderer& renderer, double fraction, double targetError
     const int width = 30, filled = static_cast<int>(fraction * width);
     const double error = renderer.estimatedRelativeError(kGroupFlare);
     char errorText[64] = "";
-    if (s.passes >= 2) std::snprintf(errorText, sizeof errorText, "  error %.2g%%", 100.0 * error);
-    if (s.passes >= 2 && targetError > 0.0)
+    if (renderer.hasErrorEstimate()) std::snprintf(errorText, sizeof errorText, "  error %.2g%%", 100.0 * error);
+    if (renderer.hasErrorEstimate() && targetError > 0.0)
         std::snprintf(errorText + std::strlen(errorText), sizeof errorText - std::strlen(errorText), " (target %.2g%%)",
                       100.0 * targetError);
     std::fprintf(stderr, "\r[%.*s%*s] %5.1f%%  %d passes%s  %.0f s left   ", filled, "##############################",
@@ -301,7 +309,7 @@ int run(const RenderCommandOptions& o) {
         {"seed", std::to_string(options.seed)},
     };
     // PIZ: a render's layers are grainy, where it beats ZIP in size and time (ImageIO.h).
-    writeExr(o.exr, layers, metadata, {.compression = ExrCompression::Piz});
+    writeExr(o.exr, layers, metadata, {.storage = {}, .compression = ExrCompression::Piz});
     if (!o.png.empty()) {
         const ImageLayer& ghost = layers[1 + kLayerGhost];
         writePng(o.png, layers.front(), 0.25 * autoExposure(ghost));

@@ -444,7 +444,9 @@ PYBIND11_MODULE(flare, m) {
            std::optional<std::uint64_t> seed, int threads, const std::string& mode, bool layers,
            std::optional<int> maxBounces, const std::string& higherOrderChoice, const std::string& kernelChoice,
            double radiusPx, int smoothNeighbours, std::optional<double> interiorAlbedo, std::optional<bool> diffraction,
-           bool analogStray) {
+           bool analogStray, int beamReplicates) {
+            if (beamReplicates < 2 || beamReplicates > kMaxReplicates)
+                throw py::value_error("beam_replicates must be in [2, " + std::to_string(kMaxReplicates) + "]");
             SceneRenderOverrides overrides;
             overrides.mode = renderMode(mode);
             overrides.seed = seed;
@@ -456,6 +458,7 @@ PYBIND11_MODULE(flare, m) {
             overrides.smoothNeighbours = smoothNeighbours;
             overrides.interiorAlbedo = interiorAlbedo;
             overrides.strayLightSampling = !analogStray;
+            overrides.beamReplicates = beamReplicates;
             return render(withDiffraction(scene, diffraction), RenderArguments{photons, timeS, targetError, threads},
                           overrides);
         },
@@ -464,7 +467,7 @@ PYBIND11_MODULE(flare, m) {
         py::arg("mode") = "guided", py::arg("layers") = false, py::arg("max_bounces") = py::none(),
         py::arg("higher_order") = "auto", py::arg("kernel") = "fixed", py::arg("radius_px") = 1.0,
         py::arg("smooth_neighbours") = 256, py::arg("interior_albedo") = py::none(), py::arg("diffraction") = py::none(),
-        py::arg("analog_stray") = false,
+        py::arg("analog_stray") = false, py::arg("beam_replicates") = 2,
         "The physically based render, as `flare render` with the same options and defaults (it stops at the target "
         "error, time_s or photons, whichever comes first; without either limit at the scene's photon count): a dict "
         "of float32 arrays (height, width, 3) keyed by EXR layer name: '' (the sum, the starburst in place of the "

@@ -33,8 +33,8 @@ inline RenderOptions sceneRenderOptions(const Scene& scene, const LensSystem& le
     RenderOptions o;
     o.mode = mode;
     o.seed = seed;
-    // Small passes: the tests want many independent passes (their spread is the standard error
-    // of the beams' part) more than large ones.
+    // Small passes: the tests want many passes (their spread, or their replicates', is the
+    // standard error) more than large ones.
     o.batchesPerPass = 16;
     o.beamsPerPass = 32;
     o.film.widthPx = scene.sensor.widthPx;

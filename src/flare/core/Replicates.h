@@ -15,7 +15,9 @@
 
 namespace flare {
 
-constexpr int kMaxReplicates = 16;
+// Each replicate keeps a full-frame sum per variance group (Film::setReplicates): the bound keeps
+// that memory within 4× what independent passes need (their sum and sum of squares).
+constexpr int kMaxReplicates = 8;
 
 // The number of passes among the first `passes` that belong to replicate r of K.
 inline std::int64_t replicatePasses(int r, std::int64_t passes, int replicates) {

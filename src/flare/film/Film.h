@@ -116,6 +116,8 @@ public:
     // linear Rec.709 RGB, (W/m²)²), from the spread between passes (or replicates). Empty before
     // two passes (before every replicate has one).
     std::vector<float> varianceRgb(int group = 0) const;
+    // Whether there is a variance estimate yet: two passes, or a pass in every replicate.
+    bool hasVariance() const;
     // The group's estimated relative L2 error: sqrt(Σ variance) / ‖mean image‖ over every pixel
     // and RGB channel, the quantity `flare compare` measures against a reference; with the sum
     // of variances and the squared norm (both in (W/m²)²). Zero while varianceRgb is empty.
@@ -170,7 +172,6 @@ private:
     void addWideKernel(int layer, bool inTotal, int cx, int cy, int m, const glm::dvec3& value, int rowBegin,
                        int rowEnd);
     void integrateWideSplats();
-    bool hasVariance() const;
     double varianceOfMean(const double* const* sums, int i) const;
 
     FilmSettings settings_;

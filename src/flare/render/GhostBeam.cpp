@@ -242,7 +242,7 @@ void GhostBeam::bucketByBand() {
     }
 }
 
-void GhostBeam::index() {
+void GhostBeam::index() const {
     if (triangles_.empty()) return;
     glm::dvec2 lo(1e300), hi(-1e300);
     for (const BeamTriangle& t : triangles_)
@@ -305,7 +305,7 @@ const BeamTriangle* GhostBeam::locate(const glm::dvec2& u, double* b1, double* b
 bool GhostBeam::twin(const glm::dvec2& pupilMm, BeamTwin* out) const {
     // The point location grid is built by the first twin: renders without correction photons
     // never need it.
-    std::call_once(*indexOnce_, [this] { const_cast<GhostBeam*>(this)->index(); });
+    std::call_once(*indexOnce_, [this] { index(); });
     double l1 = 0.0, l2 = 0.0;
     const BeamTriangle* t = locate(pupilMm, &l1, &l2);
     if (!t) return false;

@@ -113,18 +113,19 @@ public:
                    double* rows) const;
 
 private:
-    void index();
+    void index() const;
     void bucketByBand();
     const BeamTriangle* locate(const glm::dvec2& pupilMm, double* b1, double* b2) const;
 
     FilmFrame frame_;
     std::vector<BeamTriangle> triangles_;
     long tracedRays_ = 0;
-    // Point location: a grid of buckets over the pupil bounding box of the triangles.
-    glm::dvec2 bucketMinMm_{0.0};
-    double bucketMm_ = 1.0;
-    int bucketsA_ = 0, bucketsB_ = 0;
-    std::vector<int> bucketStart_, bucketTriangles_;
+    // Point location: a grid of buckets over the pupil bounding box of the triangles, built once
+    // by the first twin (under indexOnce_).
+    mutable glm::dvec2 bucketMinMm_{0.0};
+    mutable double bucketMm_ = 1.0;
+    mutable int bucketsA_ = 0, bucketsB_ = 0;
+    mutable std::vector<int> bucketStart_, bucketTriangles_;
     std::unique_ptr<std::once_flag> indexOnce_ = std::make_unique<std::once_flag>();  // (movable)
     // Triangles sorted by the film band of their first row (jitter included); band b's, in that
     // order, are bandTriangles_[bandStart_[b] .. bandStart_[b + 1]).

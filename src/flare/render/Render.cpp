@@ -969,7 +969,7 @@ std::uint64_t Renderer::fingerprint() const {
                         options_.correctionPhotonsPerBeam, options_.beamMeshLevel,
                         static_cast<int>(std::lround(options_.testBeamShiftPx * 1024.0)), options_.maxAnalysedChains,
                         options_.smoothNeighbours, options_.tabulatedReflectance ? 1 : 0,
-                        options_.strayLightSampling ? 1 : 0, options_.beamReplicates};
+                        options_.strayLightSampling ? 1 : 0, film_.replicates()};
     mix(ints, sizeof ints);
     for (const Component& c : components_) {
         mix(&c.light, sizeof c.light);
@@ -986,6 +986,9 @@ std::uint64_t Renderer::fingerprint() const {
 
 namespace {
 constexpr std::uint64_t kCheckpointMagic = 0x3354504b43524c46ull;  // "FLRCKPT3"
+// More passes than any render makes (2^24 passes of 65 536 photons: 10^12 photons); the bound keeps
+// a hostile checkpoint from making the load recount beams for hours.
+constexpr int kMaxCheckpointPasses = 1 << 24;
 }
 
 void Renderer::saveCheckpoint(const std::string& path) const {
@@ -1047,20 +1050,31 @@ void Renderer::loadCheckpoint(const std::string& path) {
                 valid = valid && !bad(t.sumMeans) && !bad(t.sumSquaredMeans) &&
                         std::all_of(t.replicateSums.begin(), t.replicateSums.end(), [](double v) { return std::isfinite(v); });
         if (!valid) throw std::runtime_error("checkpoint: a statistic or tally is negative or not finite");
-        film_.load(in);
+        if (statistics.passes > kMaxCheckpointPasses ||
+            header[2] != static_cast<std::uint64_t>(statistics.passes) * static_cast<std::uint64_t>(options_.batchesPerPass))
+            throw std::runtime_error("checkpoint: its pass or batch count is out of range");
+        // Where each replicate's sequences go on: the beams its passes drew (which must be the
+        // beams the checkpoint counts).
+        std::vector<std::vector<std::uint64_t>> drawn = beamsDrawn_;
+        std::uint64_t total = 0;
+        for (auto& d : drawn) std::fill(d.begin(), d.end(), 0);
+        for (int pass = 0; pass < statistics.passes; ++pass)
+            for (size_t l = 0; l < lightStates_.size(); ++l)
+                for (int slot = 1; slot < lightStates_[l].slots; ++slot) {
+                    const int count = beamCount(pass, l, slot);
+                    drawn[l][static_cast<size_t>(slot) * options_.beamReplicates + replicateOfPass(pass)] += count;
+                    total += static_cast<std::uint64_t>(count);
+                }
+        if (total != static_cast<std::uint64_t>(statistics.beams))
+            throw std::runtime_error("checkpoint: its beam count is not the one its passes draw");
+        film_.load(in);  // (leaves the film as it was if it throws)
         if (film_.passes() != statistics.passes) throw std::runtime_error("checkpoint: the film's passes differ from the statistics'");
         statistics_ = statistics;
         tallies_ = std::move(tallies);
         layerTallies_ = std::move(layerTallies);
         scatterSourceTallies_ = std::move(sourceTallies);
         batchesDone_ = static_cast<std::int64_t>(header[2]);
-        // Where each replicate's sequences go on: the beams its passes drew.
-        for (auto& drawn : beamsDrawn_) std::fill(drawn.begin(), drawn.end(), 0);
-        for (int pass = 0; pass < statistics_.passes; ++pass)
-            for (size_t l = 0; l < lightStates_.size(); ++l)
-                for (int slot = 1; slot < lightStates_[l].slots; ++slot)
-                    beamsDrawn_[l][static_cast<size_t>(slot) * options_.beamReplicates + replicateOfPass(pass)] +=
-                        beamCount(pass, l, slot);
+        beamsDrawn_ = std::move(drawn);
     } catch (const std::runtime_error& e) {
         throw InputError(path, 0, e.what());
     }

@@ -24,8 +24,10 @@
 // fixed number per path and pass. The sum is an unbiased estimate of the full transport, which a
 // test checks against naive mode (the unguided tracer alone).
 //
-// Work is split into passes of photon batches and beams; every batch's and beam's random numbers
-// come from (seed, pass, index) and a pass is merged into the film band by band in a fixed order,
+// Work is split into passes of photon batches and beams; a batch's random numbers come from
+// (seed, batch), a beam's sample from its path's sequence in its replicate (scrambled from the
+// seed, the path and the replicate) and its other random numbers from (seed, pass, index), and a
+// pass is merged into the film band by band in a fixed order,
 // in parallel, so the image depends on the seed and never on the thread count. Without beams,
 // passes are independent estimates: the spread between them gives the variance of every layer
 // and of the flare without the direct image (the render's error estimate). With beams, the passes
@@ -77,17 +79,17 @@ struct RenderOptions {
     int batchesPerPass = 64;
     // Beams of a pass, per light (in expectation), shared among its beam-rendered paths in
     // proportion to √(variance per beam / cost) as a probe beam estimates them; and the
-    // correction photons traced with each beam. Large passes pay: a pass's beams are one
-    // scrambled Sobol' set, whose error falls faster than one over the square root of its size
-    // (the default scene's ghost layer after 12 s: 3.0 % at 256 per pass, 2.0 % at 1024).
+    // correction photons traced with each beam. A path's beams continue its sequence from pass
+    // to pass, so the pass size matters little to the error.
     int beamsPerPass = 1024;
     int correctionPhotonsPerBeam = 0;
     // Independent replicates of the beams' sequences (2 to kMaxReplicates): the render's
     // error estimate, and each beam path's standard error, come from their spread. Each replicate
     // continues its own Sobol' sequence, whose error falls faster than one over the square root
     // of its length, so fewer replicates give a cleaner image in the same time (docs/BENCHMARKS.md:
-    // on the default scene four replicates had 1.15× the error of two) but a rougher estimate of
-    // its error (K − 1 degrees of freedom per pixel and per path).
+    // on the default scene four replicates had 1.16× the error of two, eight 1.38×) but a rougher
+    // estimate of its error (K − 1 degrees of freedom per pixel and per path); each costs a
+    // full-frame image per variance group.
     int beamReplicates = 2;
     // Beams are meshed on the ghost analysis's cells split to this level (PupilRemeshOptions).
     int beamMeshLevel = 2;
@@ -234,6 +236,8 @@ public:
     // variance group's image (RenderVarianceGroup), from the spread between passes (or
     // replicates); 0 before two passes (before every replicate has one).
     double estimatedRelativeError(int group) const;
+    // Whether the estimate exists yet (two passes; with beams, a pass in every replicate).
+    bool hasErrorEstimate() const { return film_.hasVariance(); }
 
     // Checkpoints (binary): the film, the tallies, the statistics and the number of passes done.
     // Loading checks that the checkpoint was written by a render with the same scene, lens and

@@ -58,7 +58,8 @@ bool RenderStopRule::reached(const Renderer& renderer, double elapsedS) const {
     if (done < 2) return false;
     if (passesWanted > 0 && done >= passesWanted) return true;
     if (timeS > 0.0 && elapsedS >= timeS) return true;
-    if (!(targetError > 0.0) || done < kMinPassesToStop) return false;
+    const int minimum = std::max(kMinPassesToStop, kMinPassesPerReplicateToStop * renderer.film().replicates());
+    if (!(targetError > 0.0) || done < minimum || !renderer.hasErrorEstimate()) return false;
     // The estimate scans the whole film: after the first passes it is checked every sixteenth of
     // the passes done (an overshoot of at most 1/16 of the work; a rule of the pass count, so the
     // same seed stops after the same pass).

@@ -40,12 +40,14 @@ struct SceneRenderOverrides {
 RenderOptions sceneRenderOptions(const Scene& scene, const LensSystem& lens, const SceneRenderOverrides& overrides);
 
 // The error estimate of a render with fewer passes than this is too rough to stop on (its
-// variance estimate has passes − 1 degrees of freedom).
+// variance estimate has passes − 1 degrees of freedom); with beams, whose estimate comes from K
+// replicates, fewer than four passes per replicate.
 inline constexpr int kMinPassesToStop = 8;
+inline constexpr int kMinPassesPerReplicateToStop = 4;
 
 // When a render stops: at the target error (the estimated relative L2 error of the flare without
 // the direct image), the time or the photon count, whichever is reached first, and never before two
-// passes (so that the variance estimate exists). Without a time or a photon count, the scene's
+// passes (the target never before the estimate exists). Without a time or a photon count, the scene's
 // photon count is the limit, so that a target the scene cannot reach still ends. The target is
 // checked after every pass up to 16, then every (passes / 16)-th pass (the estimate scans the
 // whole film).

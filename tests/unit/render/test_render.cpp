@@ -23,6 +23,7 @@
 #include "flare/ghosts/Ghosts.h"
 #include "flare/ghosts/Preview.h"
 #include "flare/render/Render.h"
+#include "flare/scene/SceneRender.h"
 #include "RenderTestUtil.h"
 
 namespace flare {
@@ -371,6 +372,34 @@ TEST(Render, EstimatedErrorIsHonest) {
     EXPECT_LT(tStatistic(dPasses), -critical) << "the passes' spread should overstate the error of correlated passes";
 }
 
+// The target stop needs an estimate to stop on: never before every replicate has four passes (and
+// never before eight passes), whatever the target. With eight replicates there is no estimate at
+// all before pass eight, whose 0 must not read as "target reached"; with two, a target every
+// estimate meets stops at pass eight. A photon count stops without an estimate; no target, never.
+TEST(Render, TheTargetStopWaitsForAnEstimateFromEveryReplicate) {
+    const Scene scene = doubletScene();
+    const LensSystem lens = buildSceneLens(scene);
+    for (const int replicates : {2, 8}) {
+        RenderOptions o = optionsFor(scene, lens, RenderOptions::Mode::Guided);
+        o.beamReplicates = replicates;
+        o.higherOrder = RenderOptions::HigherOrder::Off;
+        o.batchesPerPass = 1;
+        Renderer r(lens, scene.lights, o);
+        ASSERT_EQ(r.film().replicates(), replicates);
+        const RenderStopRule anyTarget = RenderStopRule::make(scene, o, 0, 0.0, 1e9);
+        const RenderStopRule none = RenderStopRule::make(scene, o, 0, 0.0, 0.0);
+        const RenderStopRule count = RenderStopRule::make(scene, o, 3 * o.photonsPerPass(), 0.0, 1e9);
+        const int expected = std::max(kMinPassesToStop, kMinPassesPerReplicateToStop * replicates);
+        for (int pass = 1; pass <= expected; ++pass) {
+            r.runPass();
+            EXPECT_EQ(r.hasErrorEstimate(), pass >= replicates) << replicates << " replicates, pass " << pass;
+            EXPECT_EQ(anyTarget.reached(r, 0.0), pass >= expected) << replicates << " replicates, pass " << pass;
+            EXPECT_FALSE(none.reached(r, 0.0));
+            EXPECT_EQ(count.reached(r, 0.0), pass >= 3);
+        }
+    }
+}
+
 // Order-4 chains are analysed only up to maxAnalysedChains: with more, Auto leaves them to the
 // unguided tracer and says why; On analyses that many, the strongest by reflectance.
 TEST(Render, OrderFourAnalysisIsBoundedByTheChainCap) {
@@ -424,7 +453,7 @@ TEST(Render, BeamsAgreeWithGuidedPhotonsAndNaiveOnTheUncoatedDoubleGauss) {
     const LensSystem lens = buildSceneLens(scene);
     RenderOptions beamOptions = optionsFor(scene, lens, RenderOptions::Mode::Guided);
     beamOptions.beamsPerPass = 256;  // ~50 ghosts and 512 chains: enough beams for per-ghost errors
-    beamOptions.beamReplicates = 12;  // five passes each: per-ghost errors from 11 degrees of freedom
+    beamOptions.beamReplicates = 8;  // seven or eight passes each: per-ghost errors from 7 degrees of freedom
     Renderer beams(lens, scene.lights, beamOptions);
     ASSERT_TRUE(beams.lights().front().higherOrderGuided);  // uncoated: order-4 chains are guided
     Renderer photons(lens, scene.lights, optionsFor(scene, lens, RenderOptions::Mode::GuidedPhotons));
@@ -509,8 +538,11 @@ TEST(Render, ResumingFromACheckpointGivesTheUninterruptedImage) {
     const Scene scene = doubletScene();
     const LensSystem lens = buildSceneLens(scene);
     const RenderOptions o = optionsFor(scene, lens, RenderOptions::Mode::Guided);
+    // Resumed after two passes, then two more: both replicates' sequences must go on where they
+    // stopped.
+    ASSERT_EQ(o.beamReplicates, 2);
     Renderer straight(lens, scene.lights, o);
-    for (int pass = 0; pass < 3; ++pass) straight.runPass();
+    for (int pass = 0; pass < 4; ++pass) straight.runPass();
 
     const std::string checkpoint = writeTemp("render.checkpoint", "");
     {
@@ -522,6 +554,8 @@ TEST(Render, ResumingFromACheckpointGivesTheUninterruptedImage) {
     Renderer resumed(lens, scene.lights, o);
     resumed.loadCheckpoint(checkpoint);
     resumed.runPass();
+    resumed.runPass();
+    ASSERT_GT(straight.statistics().beams, 0);
     expectSameRender(straight, resumed);
 
     // A checkpoint of another render is refused with the file named.
