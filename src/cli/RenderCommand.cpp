@@ -85,7 +85,8 @@ nlohmann::json reportJson(const Renderer& renderer, const Scene& scene, const Le
     nlohmann::json skipped = nlohmann::json::array();
     for (const LightPlan& l : renderer.lights()) {
         lights.push_back({{"name", l.name}, {"entering_power_w", l.enteringPowerW}, {"kept_ghosts", l.keptGhosts},
-                          {"beam_ghosts", l.beamGhosts}, {"pruned_ghosts", l.prunedGhosts}, {"skipped", l.skipped},
+                          {"beam_ghosts", l.beamGhosts}, {"pruned_ghosts", l.prunedGhosts},
+                          {"spectrally_kept_ghosts", l.spectrallyKeptGhosts}, {"skipped", l.skipped},
                           {"higher_order",
                            {{"share_estimate", l.higherOrderShareEstimate},
                             {"guided", l.higherOrderGuided},

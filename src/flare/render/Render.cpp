@@ -9,6 +9,7 @@
 #include <fstream>
 #include <memory>
 #include <numbers>
+#include <numeric>
 #include <unordered_map>
 
 #include <glm/geometric.hpp>
@@ -90,6 +91,57 @@ glm::dvec2 concentricToPolarUniforms(double s, double t) {
     double u2 = phi / (2.0 * std::numbers::pi);
     u2 -= std::floor(u2);
     return {std::min(r * r, std::nextafter(1.0, 0.0)), std::min(u2, std::nextafter(1.0, 0.0))};
+}
+
+// One ray of a path over the spectrum: its throughput per 1-nm bin of the CIE range (through the
+// nearest live cell to the centroid of the analysed live region: the centroid of a ring is not in
+// it), and the ratio of its luminance-weighted throughput in `spectrum` to its throughput at the
+// analysis's wavelength, which turns the analysed power into the power the path carries in this
+// light (coatings tuned to one wavelength can reflect tens of times more elsewhere). No live
+// cell: an empty result.
+struct PathSpectrum {
+    std::vector<double> throughput;
+    double ratio = 1.0;
+};
+
+PathSpectrum pathSpectrum(const LensSystem& lens, const PupilGrid& grid, const GhostEstimate& estimate,
+                          const Spectrum& spectrum, double analysisNm) {
+    const LivePupilRegion& region = estimate.pupil;
+    auto cellCentre = [&](int i, int j) {
+        return glm::dvec2(region.aMinMm + (i + 0.5) * region.cellMm, region.bMinMm + (j + 0.5) * region.cellMm);
+    };
+    auto live = [&](int i, int j) { return region.live[static_cast<size_t>(j) * region.cellsA + i] != 0; };
+    glm::dvec2 centre(0.0);
+    int count = 0;
+    for (int j = 0; j < region.cellsB; ++j)
+        for (int i = 0; i < region.cellsA; ++i)
+            if (live(i, j)) centre += cellCentre(i, j), ++count;
+    if (count == 0) return {};
+    centre /= count;
+    glm::dvec2 nearest = centre;
+    double nearestMm2 = 1e300;
+    for (int j = 0; j < region.cellsB; ++j)
+        for (int i = 0; i < region.cellsA; ++i) {
+            const glm::dvec2 d = cellCentre(i, j) - centre;
+            if (live(i, j) && glm::dot(d, d) < nearestMm2) nearest = cellCentre(i, j), nearestMm2 = glm::dot(d, d);
+        }
+    SequentialPath sequence;
+    sequence.reflections = estimate.path.reflections;
+    PathSpectrum out;
+    out.throughput.assign(kWavelengthBins, 0.0);
+    double luminance = 0.0, reflectedLuminance = 0.0;
+    for (int i = 0; i < kWavelengthBins; ++i) {
+        const double nm = kCieMinNm + i + 0.5;
+        const TraceResult r = tracePath(lens, lens.indicesAt(nm), grid.ray(nearest.x, nearest.y), sequence);
+        out.throughput[i] = r.ok() ? r.throughput : 0.0;
+        const double y = spectrum.value(nm) * cieXyzBar(nm).y;
+        luminance += y;
+        reflectedLuminance += y * out.throughput[i];
+    }
+    const TraceResult atAnalysis = tracePath(lens, lens.indicesAt(analysisNm), grid.ray(nearest.x, nearest.y), sequence);
+    if (atAnalysis.ok() && atAnalysis.throughput > 0.0 && reflectedLuminance > 0.0)
+        out.ratio = (reflectedLuminance / luminance) / atAnalysis.throughput;
+    return out;
 }
 
 }  // namespace
@@ -241,6 +293,46 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
             }
             plan.higherOrderPaths = kept;
         }
+        // Every path's spectrum in this light. The analysis pruned the ghosts on their power at its
+        // one wavelength, and a ghost whose coatings reflect little there can carry more of this
+        // light than ghosts it kept; left to the unguided tracer, such a ghost's rare photons were
+        // the zoom's ghost-layer fireflies (docs/BENCHMARKS.md). So the ghosts (order 2) are pruned
+        // again, with the same rule, on their power over the spectrum, and a ghost either pruning
+        // keeps is kept.
+        std::vector<PathSpectrum> spectra(1 + state.report.ghosts.size());
+        if (options.mode != RenderOptions::Mode::Naive) {
+            const Spectrum spectrum = toSpectrum(spec.spectrum);
+            tbb::parallel_for(0, static_cast<int>(state.report.ghosts.size()), [&](int g) {
+                const GhostEstimate& estimate = state.report.ghosts[g];
+                if (estimate.powerFraction > 0.0)
+                    spectra[g + 1] = pathSpectrum(lens, state.report.grid, estimate, spectrum, options.analysis.wavelengthNm);
+            });
+            std::vector<GhostEstimate> byLight;
+            std::vector<size_t> index;
+            for (size_t g = 0; g < state.report.ghosts.size(); ++g)
+                if (state.report.ghosts[g].path.reflections.size() == 2) {
+                    byLight.push_back(state.report.ghosts[g]);
+                    byLight.back().powerFraction *= spectra[g + 1].ratio;
+                    index.push_back(g);
+                }
+            std::vector<size_t> order(byLight.size());
+            std::iota(order.begin(), order.end(), size_t{0});
+            std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+                return byLight[a].powerFraction > byLight[b].powerFraction;
+            });
+            std::vector<GhostEstimate> sorted;
+            for (size_t k : order) sorted.push_back(byLight[k]);
+            pruneGhosts(sorted, options.analysis.keepShare, options.analysis.relativeThreshold);
+            for (size_t k = 0; k < order.size(); ++k) {
+                GhostEstimate& estimate = state.report.ghosts[index[order[k]]];
+                if (estimate.pruned && !sorted[k].pruned) {
+                    estimate.pruned = false;
+                    --state.report.prunedCount;
+                    state.report.prunedPowerFraction -= estimate.powerFraction;
+                    ++plan.spectrallyKeptGhosts;
+                }
+            }
+        }
         const GhostReport& report = state.report;
         state.slots = 1 + static_cast<int>(report.ghosts.size());
         state.tallyOffset = static_cast<int>(tallies_.size());
@@ -311,56 +403,17 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
                 if (state.masks[slot].empty()) return;
                 state.strategy[slot] = PathStrategy::Photons;
                 if (slot == 0 || !beamLight || estimate.lattice.empty()) return;
-                // Wavelengths where the path's coatings reflect: one ray through the middle of
-                // the live region, traced at every nanometre.
-                const LivePupilRegion& region = estimate.pupil;
-                glm::dvec2 centre(0.0);
-                int live = 0;
-                for (int j = 0; j < region.cellsB; ++j)
-                    for (int i = 0; i < region.cellsA; ++i)
-                        if (region.live[static_cast<size_t>(j) * region.cellsA + i]) {
-                            centre += glm::dvec2(region.aMinMm + (i + 0.5) * region.cellMm,
-                                                 region.bMinMm + (j + 0.5) * region.cellMm);
-                            ++live;
-                        }
-                centre /= std::max(live, 1);
-                // (The centroid of a ring-shaped region is not in it: take the nearest live cell.)
-                glm::dvec2 nearest = centre;
-                double nearestMm2 = 1e300;
-                for (int j = 0; j < region.cellsB; ++j)
-                    for (int i = 0; i < region.cellsA; ++i) {
-                        const glm::dvec2 c(region.aMinMm + (i + 0.5) * region.cellMm,
-                                           region.bMinMm + (j + 0.5) * region.cellMm);
-                        const glm::dvec2 d = c - centre;
-                        if (region.live[static_cast<size_t>(j) * region.cellsA + i] && glm::dot(d, d) < nearestMm2)
-                            nearest = c, nearestMm2 = glm::dot(d, d);
-                    }
-                centre = nearest;
-                SequentialPath sequence;
-                sequence.reflections = estimate.path.reflections;
-                std::vector<double> importance(kWavelengthBins, 0.0);
-                double mean = 0.0, luminance = 0.0, reflectedLuminance = 0.0;
-                const Spectrum spectrum = toSpectrum(spec.spectrum);
-                for (int i = 0; i < kWavelengthBins; ++i) {
-                    const double nm = kCieMinNm + i + 0.5;
-                    const TraceResult r =
-                        tracePath(lens, lens.indicesAt(nm), report.grid.ray(centre.x, centre.y), sequence);
-                    importance[i] = r.ok() ? r.throughput : 0.0;
-                    mean += importance[i] / kWavelengthBins;
-                    const double y = spectrum.value(nm) * cieXyzBar(nm).y;
-                    luminance += y;
-                    reflectedLuminance += y * importance[i];
-                }
-                // The analysis traced one wavelength; coatings tuned to it can reflect tens of
-                // times more elsewhere. This ratio (the ray's luminance-weighted throughput over
-                // the spectrum, over its throughput at the analysis's wavelength) turns the
-                // analysed power into the power the path carries in this light.
-                const TraceResult atAnalysis = tracePath(lens, indices, report.grid.ray(centre.x, centre.y), sequence);
-                spectralPower[slot] = estimate.powerFraction;
-                if (atAnalysis.ok() && atAnalysis.throughput > 0.0 && reflectedLuminance > 0.0)
-                    spectralPower[slot] *= (reflectedLuminance / luminance) / atAnalysis.throughput;
+                // Wavelengths where the path's coatings reflect (its ray's throughput at every
+                // nanometre), and the power it carries in this light.
+                const PathSpectrum& pathShape = spectra[slot];
+                std::vector<double> importance = pathShape.throughput;
+                if (importance.empty()) importance.assign(kWavelengthBins, 0.0);
+                spectralPower[slot] = estimate.powerFraction * pathShape.ratio;
+                double mean = 0.0;
+                for (double v : importance) mean += v / kWavelengthBins;
                 if (!(mean > 0.0)) std::fill(importance.begin(), importance.end(), 1.0), mean = 1.0;
                 for (double& v : importance) v += kSpectralFloor * mean;
+                const Spectrum spectrum = toSpectrum(spec.spectrum);
                 state.beamWavelengths[slot] = std::make_unique<WavelengthSampler>(spectrum, importance);
                 // A beam at the analysis's wavelength and the light's central direction measures
                 // what the path's beams will cost and how uneven its image is (Σ power² / area:

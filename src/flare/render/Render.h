@@ -163,6 +163,9 @@ struct LightPlan {
     double enteringPowerW = 0.0;  // the light's power entering the front clear aperture (nominal)
     int keptGhosts = 0, prunedGhosts = 0;
     int beamGhosts = 0;           // kept ghosts rendered by beams
+    // Kept ghosts the analysis had pruned at its one wavelength, kept for their power over this
+    // light's spectrum.
+    int spectrallyKeptGhosts = 0;
     // Order-4 chains: the estimated ratio of their power to the ghosts' (higherOrderShareEstimate
     // in Ghosts.h), whether they were enumerated and guided, how many chains the lens has, how
     // many were analysed and how many kept.

@@ -22,6 +22,7 @@
 #include "flare/core/Spectrum.h"
 #include "flare/ghosts/Ghosts.h"
 #include "flare/ghosts/Preview.h"
+#include "flare/photons/Light.h"
 #include "flare/render/Render.h"
 #include "flare/scene/SceneRender.h"
 #include "RenderTestUtil.h"
@@ -398,6 +399,65 @@ TEST(Render, TheTargetStopWaitsForAnEstimateFromEveryReplicate) {
             EXPECT_EQ(count.reached(r, 0.0), pass >= 3);
         }
     }
+}
+
+// The analysis prunes ghosts on their power at one wavelength (550 nm); the render prunes them
+// again on their power over the light's spectrum and keeps what either keeps. Checked against an
+// independent spectral estimate: the analysis run at six wavelengths across the visible, each
+// ghost's powers weighted by the sun's spectrum times the eye's luminous efficiency. On the 24–70
+// zoom at its tele position (multilayer coatings, tuned to the middle of the visible), with the
+// threshold rule alone (a ghost is kept above 1e-5 of the strongest): every ghost whose
+// independent spectral power is clearly above the cut (3×) is kept, and some of them were pruned
+// at 550 nm (so the test fails without the second pruning).
+TEST(Render, GhostsArePrunedOnTheirPowerOverTheLightsSpectrum) {
+    const Scene scene = parseSceneText(R"({
+  "lens": "zoom-24-70mm", "zoom": "tele", "focus_distance_mm": "infinity", "f_number": 4.0,
+  "sensor": { "resolution": [48, 32] },
+  "lights": [ { "type": "directional", "field_deg": [6.0, 4.0], "angular_diameter_deg": 0.53,
+                "spectrum": { "blackbody_k": 5778 } } ]
+})", "zoom.json", "");
+    const LensSystem lens = buildSceneLens(scene);
+    RenderOptions o = optionsFor(scene, lens, RenderOptions::Mode::Guided);
+    o.analysis.keepShare = 0.0;
+    o.analysis.relativeThreshold = 1e-5;
+    o.higherOrder = RenderOptions::HigherOrder::Off;
+    const Renderer r(lens, scene.lights, o);
+    const glm::dvec3 direction = scene.lights.front().travelDirection();
+    const GhostReport atAnalysis = analyseGhosts(lens, direction, o.analysis);
+    const Spectrum sun = toSpectrum(scene.lights.front().spectrum);
+    std::vector<double> spectral(atAnalysis.ghosts.size(), 0.0);
+    double weights = 0.0;
+    for (double nm : {425.0, 475.0, 525.0, 575.0, 625.0, 675.0}) {
+        GhostAnalysisOptions at = o.analysis;
+        at.wavelengthNm = nm;
+        const GhostReport report = analyseGhosts(lens, direction, at);
+        const double w = sun.value(nm) * cieXyzBar(nm).y;
+        weights += w;
+        for (size_t i = 0; i < atAnalysis.ghosts.size(); ++i)
+            for (const GhostEstimate& g : report.ghosts)
+                if (g.path == atAnalysis.ghosts[i].path) spectral[i] += w * g.powerFraction;
+    }
+    for (double& p : spectral) p /= weights;
+    const double cut = o.analysis.relativeThreshold * *std::max_element(spectral.begin(), spectral.end());
+    int clearlyAbove = 0, rescued = 0;
+    for (size_t i = 0; i < atAnalysis.ghosts.size(); ++i) {
+        if (spectral[i] < 3.0 * cut) continue;
+        ++clearlyAbove;
+        bool guided = false;
+        for (const PathTally& t : r.tallies())
+            if (t.kind == PathTally::Kind::Ghost && t.path == atAnalysis.ghosts[i].path) guided = t.guided;
+        EXPECT_TRUE(guided) << atAnalysis.ghosts[i].path.label() << ": spectral power " << spectral[i] << ", cut " << cut;
+        rescued += guided && atAnalysis.ghosts[i].pruned;
+    }
+    EXPECT_GE(clearlyAbove, 100);
+    EXPECT_GE(rescued, 1) << "no ghost pruned at 550 nm needed keeping: the test does not exercise the second pruning";
+    EXPECT_EQ(r.lights().front().spectrallyKeptGhosts, [&] {
+        int n = 0;
+        for (const PathTally& t : r.tallies())
+            for (const GhostEstimate& g : atAnalysis.ghosts)
+                n += t.kind == PathTally::Kind::Ghost && t.guided && g.pruned && t.path == g.path;
+        return n;
+    }());
 }
 
 // Order-4 chains are analysed only up to maxAnalysedChains: with more, Auto leaves them to the
