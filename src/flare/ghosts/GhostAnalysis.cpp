@@ -83,17 +83,26 @@ GhostEstimate estimatePath(const LensSystem& lens, const SpectralIndices& indice
     return estimate(lens, indices, nullptr, grid, enteringAreaMm2, ghost, options);
 }
 
-void pruneGhosts(std::vector<GhostEstimate>& ghosts, double keepShare, double relativeThreshold) {
+std::vector<bool> prunedByPower(const std::vector<double>& powers, double keepShare, double relativeThreshold) {
     double total = 0.0;
-    for (const GhostEstimate& g : ghosts) total += g.powerFraction;
-    const double strongest = ghosts.empty() ? 0.0 : ghosts.front().powerFraction;
+    for (double p : powers) total += p;
+    const double strongest = powers.empty() ? 0.0 : powers.front();
+    std::vector<bool> pruned(powers.size());
     double cumulative = 0.0;
-    for (GhostEstimate& g : ghosts) {
+    for (size_t i = 0; i < powers.size(); ++i) {
         const bool withinShare = cumulative < keepShare * total;
-        const bool aboveThreshold = g.powerFraction > relativeThreshold * strongest;
-        g.pruned = g.powerFraction == 0.0 || !(withinShare || aboveThreshold);
-        cumulative += g.powerFraction;
+        const bool aboveThreshold = powers[i] > relativeThreshold * strongest;
+        pruned[i] = powers[i] == 0.0 || !(withinShare || aboveThreshold);
+        cumulative += powers[i];
     }
+    return pruned;
+}
+
+void pruneGhosts(std::vector<GhostEstimate>& ghosts, double keepShare, double relativeThreshold) {
+    std::vector<double> powers;
+    for (const GhostEstimate& g : ghosts) powers.push_back(g.powerFraction);
+    const std::vector<bool> pruned = prunedByPower(powers, keepShare, relativeThreshold);
+    for (size_t i = 0; i < ghosts.size(); ++i) ghosts[i].pruned = pruned[i];
 }
 
 void appendGhostPaths(const LensSystem& lens, const std::vector<GhostPath>& paths, const GhostAnalysisOptions& options,

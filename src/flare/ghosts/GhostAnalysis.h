@@ -101,5 +101,7 @@ void appendGhostPaths(const LensSystem& lens, const std::vector<GhostPath>& path
 // keepShare of the total, plus every ghost above relativeThreshold × the strongest. Expects
 // `ghosts` sorted by power.
 void pruneGhosts(std::vector<GhostEstimate>& ghosts, double keepShare, double relativeThreshold);
+// The same rule on powers sorted strongest first: which are pruned.
+std::vector<bool> prunedByPower(const std::vector<double>& powers, double keepShare, double relativeThreshold);
 
 }  // namespace flare

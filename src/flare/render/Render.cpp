@@ -9,7 +9,6 @@
 #include <fstream>
 #include <memory>
 #include <numbers>
-#include <numeric>
 #include <unordered_map>
 
 #include <glm/geometric.hpp>
@@ -303,29 +302,23 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
         if (options.mode != RenderOptions::Mode::Naive) {
             const Spectrum spectrum = toSpectrum(spec.spectrum);
             tbb::parallel_for(0, static_cast<int>(state.report.ghosts.size()), [&](int g) {
+                // (Ghosts, for the pruning below, and the kept chains, for their beams.)
                 const GhostEstimate& estimate = state.report.ghosts[g];
-                if (estimate.powerFraction > 0.0)
+                if (estimate.powerFraction > 0.0 && (estimate.path.reflections.size() == 2 || !estimate.pruned))
                     spectra[g + 1] = pathSpectrum(lens, state.report.grid, estimate, spectrum, options.analysis.wavelengthNm);
             });
-            std::vector<GhostEstimate> byLight;
-            std::vector<size_t> index;
+            // (ghost index, its power in this light), strongest first (ties in report order).
+            std::vector<std::pair<size_t, double>> byLight;
             for (size_t g = 0; g < state.report.ghosts.size(); ++g)
-                if (state.report.ghosts[g].path.reflections.size() == 2) {
-                    byLight.push_back(state.report.ghosts[g]);
-                    byLight.back().powerFraction *= spectra[g + 1].ratio;
-                    index.push_back(g);
-                }
-            std::vector<size_t> order(byLight.size());
-            std::iota(order.begin(), order.end(), size_t{0});
-            std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-                return byLight[a].powerFraction > byLight[b].powerFraction;
-            });
-            std::vector<GhostEstimate> sorted;
-            for (size_t k : order) sorted.push_back(byLight[k]);
-            pruneGhosts(sorted, options.analysis.keepShare, options.analysis.relativeThreshold);
-            for (size_t k = 0; k < order.size(); ++k) {
-                GhostEstimate& estimate = state.report.ghosts[index[order[k]]];
-                if (estimate.pruned && !sorted[k].pruned) {
+                if (state.report.ghosts[g].path.reflections.size() == 2)
+                    byLight.push_back({g, state.report.ghosts[g].powerFraction * spectra[g + 1].ratio});
+            std::stable_sort(byLight.begin(), byLight.end(), [](const auto& a, const auto& b) { return a.second > b.second; });
+            std::vector<double> powers;
+            for (const auto& [g, power] : byLight) powers.push_back(power);
+            const std::vector<bool> pruned = prunedByPower(powers, options.analysis.keepShare, options.analysis.relativeThreshold);
+            for (size_t k = 0; k < byLight.size(); ++k) {
+                GhostEstimate& estimate = state.report.ghosts[byLight[k].first];
+                if (estimate.pruned && !pruned[k]) {
                     estimate.pruned = false;
                     --state.report.prunedCount;
                     state.report.prunedPowerFraction -= estimate.powerFraction;
