@@ -5,12 +5,14 @@
 #include <numeric>
 
 #include <glm/common.hpp>
+#include <glm/geometric.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/partitioner.h>
 
 #include "flare/ghosts/PupilMesh.h"
 #include "flare/optics/BundleTracer.h"
+#include "flare/optics/SequentialTracer.h"
 
 namespace flare {
 
@@ -103,6 +105,81 @@ void pruneGhosts(std::vector<GhostEstimate>& ghosts, double keepShare, double re
     for (const GhostEstimate& g : ghosts) powers.push_back(g.powerFraction);
     const std::vector<bool> pruned = prunedByPower(powers, keepShare, relativeThreshold);
     for (size_t i = 0; i < ghosts.size(); ++i) ghosts[i].pruned = pruned[i];
+}
+
+PathSpectrum pathSpectrum(const LensSystem& lens, const PupilGrid& grid, const GhostEstimate& estimate,
+                          const Spectrum& spectrum, double analysisWavelengthNm) {
+    const LivePupilRegion& region = estimate.pupil;
+    auto cellCentre = [&](int i, int j) {
+        return glm::dvec2(region.aMinMm + (i + 0.5) * region.cellMm, region.bMinMm + (j + 0.5) * region.cellMm);
+    };
+    auto live = [&](int i, int j) { return region.live[static_cast<size_t>(j) * region.cellsA + i] != 0; };
+    glm::dvec2 centre(0.0);
+    int count = 0;
+    for (int j = 0; j < region.cellsB; ++j)
+        for (int i = 0; i < region.cellsA; ++i)
+            if (live(i, j)) centre += cellCentre(i, j), ++count;
+    if (count == 0) return {};
+    centre /= count;
+    glm::dvec2 nearest = centre;
+    double nearestMm2 = 1e300;
+    for (int j = 0; j < region.cellsB; ++j)
+        for (int i = 0; i < region.cellsA; ++i) {
+            const glm::dvec2 d = cellCentre(i, j) - centre;
+            if (live(i, j) && glm::dot(d, d) < nearestMm2) nearest = cellCentre(i, j), nearestMm2 = glm::dot(d, d);
+        }
+    SequentialPath sequence;
+    sequence.reflections = estimate.path.reflections;
+    PathSpectrum out;
+    out.throughput.assign(kWavelengthBins, 0.0);
+    double luminance = 0.0, reflectedLuminance = 0.0;
+    for (int i = 0; i < kWavelengthBins; ++i) {
+        const double nm = kCieMinNm + i + 0.5;
+        const TraceResult r = tracePath(lens, lens.indicesAt(nm), grid.ray(nearest.x, nearest.y), sequence);
+        out.throughput[i] = r.ok() ? r.throughput : 0.0;
+        const double y = spectrum.value(nm) * cieXyzBar(nm).y;
+        luminance += y;
+        reflectedLuminance += y * out.throughput[i];
+    }
+    const TraceResult atAnalysis =
+        tracePath(lens, lens.indicesAt(analysisWavelengthNm), grid.ray(nearest.x, nearest.y), sequence);
+    if (atAnalysis.ok() && atAnalysis.throughput > 0.0 && reflectedLuminance > 0.0)
+        out.ratio = (reflectedLuminance / luminance) / atAnalysis.throughput;
+    return out;
+}
+
+int keepSpectrallyStrongGhosts(const LensSystem& lens, const Spectrum& spectrum, const GhostAnalysisOptions& options,
+                               GhostReport& report, std::vector<PathSpectrum>* spectra) {
+    std::vector<PathSpectrum> own;
+    std::vector<PathSpectrum>& shapes = spectra ? *spectra : own;
+    if (!spectra) {
+        own.resize(report.ghosts.size());
+        tbb::parallel_for(0, static_cast<int>(report.ghosts.size()), [&](int g) {
+            const GhostEstimate& estimate = report.ghosts[g];
+            if (estimate.powerFraction > 0.0 && estimate.path.reflections.size() == 2)
+                own[g] = pathSpectrum(lens, report.grid, estimate, spectrum, options.wavelengthNm);
+        });
+    }
+    // (ghost index, its power in this light), strongest first (ties in report order).
+    std::vector<std::pair<size_t, double>> byLight;
+    for (size_t g = 0; g < report.ghosts.size(); ++g)
+        if (report.ghosts[g].path.reflections.size() == 2)
+            byLight.push_back({g, report.ghosts[g].powerFraction * shapes[g].ratio});
+    std::stable_sort(byLight.begin(), byLight.end(), [](const auto& a, const auto& b) { return a.second > b.second; });
+    std::vector<double> powers;
+    for (const auto& [g, power] : byLight) powers.push_back(power);
+    const std::vector<bool> pruned = prunedByPower(powers, options.keepShare, options.relativeThreshold);
+    int kept = 0;
+    for (size_t k = 0; k < byLight.size(); ++k) {
+        GhostEstimate& estimate = report.ghosts[byLight[k].first];
+        if (estimate.pruned && !pruned[k]) {
+            estimate.pruned = false;
+            --report.prunedCount;
+            report.prunedPowerFraction -= estimate.powerFraction;
+            ++kept;
+        }
+    }
+    return kept;
 }
 
 void appendGhostPaths(const LensSystem& lens, const std::vector<GhostPath>& paths, const GhostAnalysisOptions& options,

@@ -92,57 +92,6 @@ glm::dvec2 concentricToPolarUniforms(double s, double t) {
     return {std::min(r * r, std::nextafter(1.0, 0.0)), std::min(u2, std::nextafter(1.0, 0.0))};
 }
 
-// One ray of a path over the spectrum: its throughput per 1-nm bin of the CIE range (through the
-// nearest live cell to the centroid of the analysed live region: the centroid of a ring is not in
-// it), and the ratio of its luminance-weighted throughput in `spectrum` to its throughput at the
-// analysis's wavelength, which turns the analysed power into the power the path carries in this
-// light (coatings tuned to one wavelength can reflect tens of times more elsewhere). No live
-// cell: an empty result.
-struct PathSpectrum {
-    std::vector<double> throughput;
-    double ratio = 1.0;
-};
-
-PathSpectrum pathSpectrum(const LensSystem& lens, const PupilGrid& grid, const GhostEstimate& estimate,
-                          const Spectrum& spectrum, double analysisNm) {
-    const LivePupilRegion& region = estimate.pupil;
-    auto cellCentre = [&](int i, int j) {
-        return glm::dvec2(region.aMinMm + (i + 0.5) * region.cellMm, region.bMinMm + (j + 0.5) * region.cellMm);
-    };
-    auto live = [&](int i, int j) { return region.live[static_cast<size_t>(j) * region.cellsA + i] != 0; };
-    glm::dvec2 centre(0.0);
-    int count = 0;
-    for (int j = 0; j < region.cellsB; ++j)
-        for (int i = 0; i < region.cellsA; ++i)
-            if (live(i, j)) centre += cellCentre(i, j), ++count;
-    if (count == 0) return {};
-    centre /= count;
-    glm::dvec2 nearest = centre;
-    double nearestMm2 = 1e300;
-    for (int j = 0; j < region.cellsB; ++j)
-        for (int i = 0; i < region.cellsA; ++i) {
-            const glm::dvec2 d = cellCentre(i, j) - centre;
-            if (live(i, j) && glm::dot(d, d) < nearestMm2) nearest = cellCentre(i, j), nearestMm2 = glm::dot(d, d);
-        }
-    SequentialPath sequence;
-    sequence.reflections = estimate.path.reflections;
-    PathSpectrum out;
-    out.throughput.assign(kWavelengthBins, 0.0);
-    double luminance = 0.0, reflectedLuminance = 0.0;
-    for (int i = 0; i < kWavelengthBins; ++i) {
-        const double nm = kCieMinNm + i + 0.5;
-        const TraceResult r = tracePath(lens, lens.indicesAt(nm), grid.ray(nearest.x, nearest.y), sequence);
-        out.throughput[i] = r.ok() ? r.throughput : 0.0;
-        const double y = spectrum.value(nm) * cieXyzBar(nm).y;
-        luminance += y;
-        reflectedLuminance += y * out.throughput[i];
-    }
-    const TraceResult atAnalysis = tracePath(lens, lens.indicesAt(analysisNm), grid.ray(nearest.x, nearest.y), sequence);
-    if (atAnalysis.ok() && atAnalysis.throughput > 0.0 && reflectedLuminance > 0.0)
-        out.ratio = (reflectedLuminance / luminance) / atAnalysis.throughput;
-    return out;
-}
-
 }  // namespace
 
 struct Renderer::LightState {
@@ -292,39 +241,19 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
             }
             plan.higherOrderPaths = kept;
         }
-        // Every path's spectrum in this light. The analysis pruned the ghosts on their power at its
-        // one wavelength, and a ghost whose coatings reflect little there can carry more of this
-        // light than ghosts it kept; left to the unguided tracer, such a ghost's rare photons were
-        // the zoom's ghost-layer fireflies (docs/BENCHMARKS.md). So the ghosts (order 2) are pruned
-        // again, with the same rule, on their power over the spectrum, and a ghost either pruning
-        // keeps is kept.
-        std::vector<PathSpectrum> spectra(1 + state.report.ghosts.size());
+        // Every path's spectrum in this light, for the second pruning (GhostAnalysis.h: the
+        // analysis pruned at one wavelength; the zoom's ghost-layer fireflies were ghosts it pruned
+        // that reflect far more in the blue and red) and for the beams' wavelengths.
+        std::vector<PathSpectrum> spectra(state.report.ghosts.size());
         if (options.mode != RenderOptions::Mode::Naive) {
             const Spectrum spectrum = toSpectrum(spec.spectrum);
             tbb::parallel_for(0, static_cast<int>(state.report.ghosts.size()), [&](int g) {
-                // (Ghosts, for the pruning below, and the kept chains, for their beams.)
+                // (The ghosts, for the pruning, and the kept chains, for their beams.)
                 const GhostEstimate& estimate = state.report.ghosts[g];
                 if (estimate.powerFraction > 0.0 && (estimate.path.reflections.size() == 2 || !estimate.pruned))
-                    spectra[g + 1] = pathSpectrum(lens, state.report.grid, estimate, spectrum, options.analysis.wavelengthNm);
+                    spectra[g] = pathSpectrum(lens, state.report.grid, estimate, spectrum, options.analysis.wavelengthNm);
             });
-            // (ghost index, its power in this light), strongest first (ties in report order).
-            std::vector<std::pair<size_t, double>> byLight;
-            for (size_t g = 0; g < state.report.ghosts.size(); ++g)
-                if (state.report.ghosts[g].path.reflections.size() == 2)
-                    byLight.push_back({g, state.report.ghosts[g].powerFraction * spectra[g + 1].ratio});
-            std::stable_sort(byLight.begin(), byLight.end(), [](const auto& a, const auto& b) { return a.second > b.second; });
-            std::vector<double> powers;
-            for (const auto& [g, power] : byLight) powers.push_back(power);
-            const std::vector<bool> pruned = prunedByPower(powers, options.analysis.keepShare, options.analysis.relativeThreshold);
-            for (size_t k = 0; k < byLight.size(); ++k) {
-                GhostEstimate& estimate = state.report.ghosts[byLight[k].first];
-                if (estimate.pruned && !pruned[k]) {
-                    estimate.pruned = false;
-                    --state.report.prunedCount;
-                    state.report.prunedPowerFraction -= estimate.powerFraction;
-                    ++plan.spectrallyKeptGhosts;
-                }
-            }
+            plan.spectrallyKeptGhosts = keepSpectrallyStrongGhosts(lens, spectrum, options.analysis, state.report, &spectra);
         }
         const GhostReport& report = state.report;
         state.slots = 1 + static_cast<int>(report.ghosts.size());
@@ -398,7 +327,7 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
                 if (slot == 0 || !beamLight || estimate.lattice.empty()) return;
                 // Wavelengths where the path's coatings reflect (its ray's throughput at every
                 // nanometre), and the power it carries in this light.
-                const PathSpectrum& pathShape = spectra[slot];
+                const PathSpectrum& pathShape = spectra[slot - 1];
                 std::vector<double> importance = pathShape.throughput;
                 if (importance.empty()) importance.assign(kWavelengthBins, 0.0);
                 spectralPower[slot] = estimate.powerFraction * pathShape.ratio;

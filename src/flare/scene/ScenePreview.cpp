@@ -51,7 +51,9 @@ ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGh
     result.heightPx = options.heightPx;
     for (const LightSpec& spec : scene.lights) {
         const PreviewLight light = previewLight(spec, scene.render.previewWavelengths);
-        const GhostReport report = analyseGhosts(lens, light.direction, analysis);
+        GhostReport report = analyseGhosts(lens, light.direction, analysis);
+        // The ghosts pruned at 550 nm but strong in this light's spectrum are drawn too.
+        keepSpectrallyStrongGhosts(lens, toSpectrum(spec.spectrum), analysis, report);
         const PreviewImage image = renderPreview(lens, light, report, options);
         add(result.direct, image.direct.xyz);
         add(result.ghosts, image.ghosts.xyz);

@@ -24,6 +24,7 @@
 #include "flare/ghosts/Preview.h"
 #include "flare/photons/Light.h"
 #include "flare/render/Render.h"
+#include "flare/scene/ScenePreview.h"
 #include "flare/scene/SceneRender.h"
 #include "RenderTestUtil.h"
 
@@ -451,13 +452,21 @@ TEST(Render, GhostsArePrunedOnTheirPowerOverTheLightsSpectrum) {
     }
     EXPECT_GE(clearlyAbove, 100);
     EXPECT_GE(rescued, 1) << "no ghost pruned at 550 nm needed keeping: the test does not exercise the second pruning";
-    EXPECT_EQ(r.lights().front().spectrallyKeptGhosts, [&] {
+    const int kept = r.lights().front().spectrallyKeptGhosts;
+    EXPECT_EQ(kept, [&] {
         int n = 0;
         for (const PathTally& t : r.tallies())
             for (const GhostEstimate& g : atAnalysis.ghosts)
                 n += t.kind == PathTally::Kind::Ghost && t.guided && g.pruned && t.path == g.path;
         return n;
     }());
+    // The preview draws them too: every ghost the render keeps.
+    Scene previewed = scene;
+    previewed.render.pruneKeepShare = o.analysis.keepShare;
+    previewed.render.pruneRelativeThreshold = o.analysis.relativeThreshold;
+    previewed.render.diffraction = false;
+    const ScenePreview preview = previewScene(previewed, lens, false);
+    EXPECT_EQ(preview.prunedGhosts, atAnalysis.prunedCount - kept);
 }
 
 // Order-4 chains are analysed only up to maxAnalysedChains: with more, Auto leaves them to the
