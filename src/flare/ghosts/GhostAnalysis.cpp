@@ -107,8 +107,12 @@ void pruneGhosts(std::vector<GhostEstimate>& ghosts, double keepShare, double re
     for (size_t i = 0; i < ghosts.size(); ++i) ghosts[i].pruned = pruned[i];
 }
 
+namespace {
+constexpr int kPruningStepNm = 10;
+}
+
 PathSpectrum pathSpectrum(const LensSystem& lens, const PupilGrid& grid, const GhostEstimate& estimate,
-                          const Spectrum& spectrum, double analysisWavelengthNm) {
+                          const Spectrum& spectrum, double analysisWavelengthNm, int stepNm) {
     const LivePupilRegion& region = estimate.pupil;
     auto cellCentre = [&](int i, int j) {
         return glm::dvec2(region.aMinMm + (i + 0.5) * region.cellMm, region.bMinMm + (j + 0.5) * region.cellMm);
@@ -131,15 +135,16 @@ PathSpectrum pathSpectrum(const LensSystem& lens, const PupilGrid& grid, const G
     SequentialPath sequence;
     sequence.reflections = estimate.path.reflections;
     PathSpectrum out;
-    out.throughput.assign(kWavelengthBins, 0.0);
+    if (stepNm <= 1) out.throughput.assign(kWavelengthBins, 0.0);
     double luminance = 0.0, reflectedLuminance = 0.0;
-    for (int i = 0; i < kWavelengthBins; ++i) {
+    for (int i = 0; i < kWavelengthBins; i += std::max(stepNm, 1)) {
         const double nm = kCieMinNm + i + 0.5;
         const TraceResult r = tracePath(lens, lens.indicesAt(nm), grid.ray(nearest.x, nearest.y), sequence);
-        out.throughput[i] = r.ok() ? r.throughput : 0.0;
+        const double throughput = r.ok() ? r.throughput : 0.0;
+        if (stepNm <= 1) out.throughput[i] = throughput;
         const double y = spectrum.value(nm) * cieXyzBar(nm).y;
         luminance += y;
-        reflectedLuminance += y * out.throughput[i];
+        reflectedLuminance += y * throughput;
     }
     const TraceResult atAnalysis =
         tracePath(lens, lens.indicesAt(analysisWavelengthNm), grid.ray(nearest.x, nearest.y), sequence);
@@ -157,7 +162,7 @@ int keepSpectrallyStrongGhosts(const LensSystem& lens, const Spectrum& spectrum,
         tbb::parallel_for(0, static_cast<int>(report.ghosts.size()), [&](int g) {
             const GhostEstimate& estimate = report.ghosts[g];
             if (estimate.powerFraction > 0.0 && estimate.path.reflections.size() == 2)
-                own[g] = pathSpectrum(lens, report.grid, estimate, spectrum, options.wavelengthNm);
+                own[g] = pathSpectrum(lens, report.grid, estimate, spectrum, options.wavelengthNm, kPruningStepNm);
         });
     }
     // (ghost index, its power in this light), strongest first (ties in report order).

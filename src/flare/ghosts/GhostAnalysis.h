@@ -110,20 +110,21 @@ std::vector<bool> prunedByPower(const std::vector<double>& powers, double keepSh
 // kCieMinNm (kWavelengthBins values), and the ratio of that ray's luminance-weighted throughput in
 // `spectrum` to its throughput at the analysis's wavelength, which turns the analysed power into
 // the power the path carries in that light (coatings tuned to one wavelength can reflect tens of
-// times more elsewhere). A path without a live cell: no throughput, ratio 1.
+// times more elsewhere). A path without a live cell: no throughput, ratio 1. With `stepNm` > 1
+// only the ratio, from every stepNm-th bin (enough to decide a pruning; a tenth of the rays).
 struct PathSpectrum {
     std::vector<double> throughput;
     double ratio = 1.0;
 };
 PathSpectrum pathSpectrum(const LensSystem& lens, const PupilGrid& grid, const GhostEstimate& estimate,
-                          const Spectrum& spectrum, double analysisWavelengthNm);
+                          const Spectrum& spectrum, double analysisWavelengthNm, int stepNm = 1);
 
 // The analysis prunes on the power at its one wavelength, and a ghost whose coatings reflect
 // little there can carry more of a light than ghosts it kept (the 24–70 zoom at tele has 15). This
 // prunes the ghosts (order 2) again, by the same rule, on their power in `spectrum` and keeps those
 // it keeps and the analysis pruned (the report's pruned totals follow); returns how many. The
-// spectra are computed here for the ghosts with analysed power, or taken from `spectra` (one per
-// report ghost) when given.
+// spectra are computed here (every 10 nm) for the ghosts with analysed power, or taken from
+// `spectra` (one per report ghost) when given.
 int keepSpectrallyStrongGhosts(const LensSystem& lens, const Spectrum& spectrum, const GhostAnalysisOptions& options,
                                GhostReport& report, std::vector<PathSpectrum>* spectra = nullptr);
 

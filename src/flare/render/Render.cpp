@@ -247,13 +247,21 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
         std::vector<PathSpectrum> spectra(state.report.ghosts.size());
         if (options.mode != RenderOptions::Mode::Naive) {
             const Spectrum spectrum = toSpectrum(spec.spectrum);
-            tbb::parallel_for(0, static_cast<int>(state.report.ghosts.size()), [&](int g) {
-                // (The ghosts, for the pruning, and the kept chains, for their beams.)
-                const GhostEstimate& estimate = state.report.ghosts[g];
-                if (estimate.powerFraction > 0.0 && (estimate.path.reflections.size() == 2 || !estimate.pruned))
-                    spectra[g] = pathSpectrum(lens, state.report.grid, estimate, spectrum, options.analysis.wavelengthNm);
-            });
+            // Every nanometre for the kept paths (their beams' wavelengths), every ten for the
+            // pruned ghosts (the pruning); then every nanometre for the ghosts the pruning keeps.
+            auto trace = [&](bool afterPruning) {
+                tbb::parallel_for(0, static_cast<int>(state.report.ghosts.size()), [&](int g) {
+                    const GhostEstimate& estimate = state.report.ghosts[g];
+                    if (!(estimate.powerFraction > 0.0) || !spectra[g].throughput.empty()) return;
+                    const bool ghost = estimate.path.reflections.size() == 2;
+                    if (afterPruning ? !estimate.pruned : !estimate.pruned || ghost)
+                        spectra[g] = pathSpectrum(lens, state.report.grid, estimate, spectrum, options.analysis.wavelengthNm,
+                                                  estimate.pruned ? 10 : 1);
+                });
+            };
+            trace(false);
             plan.spectrallyKeptGhosts = keepSpectrallyStrongGhosts(lens, spectrum, options.analysis, state.report, &spectra);
+            trace(true);
         }
         const GhostReport& report = state.report;
         state.slots = 1 + static_cast<int>(report.ghosts.size());
