@@ -107,10 +107,6 @@ void pruneGhosts(std::vector<GhostEstimate>& ghosts, double keepShare, double re
     for (size_t i = 0; i < ghosts.size(); ++i) ghosts[i].pruned = pruned[i];
 }
 
-namespace {
-constexpr int kPruningStepNm = 10;
-}
-
 PathSpectrum pathSpectrum(const LensSystem& lens, const PupilGrid& grid, const GhostEstimate& estimate,
                           const Spectrum& spectrum, double analysisWavelengthNm, int stepNm) {
     const LivePupilRegion& region = estimate.pupil;

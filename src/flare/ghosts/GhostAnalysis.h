@@ -111,7 +111,8 @@ std::vector<bool> prunedByPower(const std::vector<double>& powers, double keepSh
 // `spectrum` to its throughput at the analysis's wavelength, which turns the analysed power into
 // the power the path carries in that light (coatings tuned to one wavelength can reflect tens of
 // times more elsewhere). A path without a live cell: no throughput, ratio 1. With `stepNm` > 1
-// only the ratio, from every stepNm-th bin (enough to decide a pruning; a tenth of the rays).
+// only the ratio, from every stepNm-th bin (kPruningStepNm is enough to decide a pruning).
+inline constexpr int kPruningStepNm = 10;
 struct PathSpectrum {
     std::vector<double> throughput;
     double ratio = 1.0;

@@ -256,7 +256,7 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
                     const bool ghost = estimate.path.reflections.size() == 2;
                     if (afterPruning ? !estimate.pruned : !estimate.pruned || ghost)
                         spectra[g] = pathSpectrum(lens, state.report.grid, estimate, spectrum, options.analysis.wavelengthNm,
-                                                  estimate.pruned ? 10 : 1);
+                                                  estimate.pruned ? kPruningStepNm : 1);
                 });
             };
             trace(false);
