@@ -461,6 +461,12 @@ std::vector<float> Film::irradianceXyz(int layer, double photonsEmitted) const {
 
 bool Film::hasVariance() const { return replicates_ > 0 ? passes_ >= replicates_ : passes_ >= 2; }
 
+bool Film::tileSums(const Group& group, size_t tile, const double** sums) const {
+    bool any = false;
+    for (size_t k = 0; k < group.sums.size(); ++k) any = (sums[k] = group.sums[k]->tiles[tile].get()) || any;
+    return any;
+}
+
 // The variance of the mean over passes of values[i] (i a pixel's channel within a tile), where
 // sums are the group's running sums of that tile (null where no pass reached it).
 double Film::varianceOfMean(const double* const* sums, int i) const {
@@ -479,9 +485,7 @@ std::vector<float> Film::varianceRgb(int group) const {
     std::vector<float> out(static_cast<size_t>(w) * h * 3, 0.0f);
     const double* sums[kMaxReplicates];
     for (size_t t = 0; t < g.sums[0]->tiles.size(); ++t) {
-        bool any = false;
-        for (size_t k = 0; k < g.sums.size(); ++k) any = (sums[k] = g.sums[k]->tiles[t].get()) || any;
-        if (!any) continue;
+        if (!tileSums(g, t, sums)) continue;
         const int tx = static_cast<int>(t % g.sums[0]->tilesX), ty = static_cast<int>(t / g.sums[0]->tilesX);
         const int x1 = std::min((tx + 1) * kTilePx, w), y1 = std::min((ty + 1) * kTilePx, h);
         for (int y = ty * kTilePx; y < y1; ++y)
@@ -509,9 +513,7 @@ Film::ErrorEstimate Film::errorEstimate(int group) const {
     const int sumsOfPasses = replicates_ > 0 ? replicates_ : 1;
     const double* sums[kMaxReplicates];
     for (size_t t = 0; t < g.sums[0]->tiles.size(); ++t) {
-        bool any = false;
-        for (size_t k = 0; k < g.sums.size(); ++k) any = (sums[k] = g.sums[k]->tiles[t].get()) || any;
-        if (!any) continue;
+        if (!tileSums(g, t, sums)) continue;
         for (int i = 0; i < kTilePx * kTilePx * 3; ++i) {
             double total = 0.0;
             for (int k = 0; k < sumsOfPasses; ++k) total += sums[k] ? sums[k][i] : 0.0;

@@ -172,6 +172,8 @@ private:
     void addWideKernel(int layer, bool inTotal, int cx, int cy, int m, const glm::dvec3& value, int rowBegin,
                        int rowEnd);
     void integrateWideSplats();
+    // A tile's running sums in `group` (null where that sum has no tile); false if none has.
+    bool tileSums(const Group& group, size_t tile, const double** sums) const;
     double varianceOfMean(const double* const* sums, int i) const;
 
     FilmSettings settings_;
