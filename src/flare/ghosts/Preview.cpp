@@ -89,15 +89,85 @@ Primitive triangle(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c
     return out;
 }
 
-// Adds a primitive's rows within [rowBegin, rowEnd] to an XYZ image, times the spectral weight.
-void rasterise(const Primitive& p, const glm::dvec3& weight, int rowBegin, int rowEnd, int width, int height,
-               std::vector<float>& xyz) {
+// One band of rows of an XYZ image, accumulated as differences along each row: a span adds its
+// value at its first column and subtracts it after its last, so that it costs the same whatever its
+// length (the ghosts of a preview cover much of the frame, wavelength after wavelength). The sums
+// run in double, and a count of the spans open at each column restarts them at exactly zero where
+// none is, so that no rounding residue leaks past a ghost's edge.
+class BandAccumulator {
+public:
+    BandAccumulator(int width, int rows)
+        : width_(width), columns_(static_cast<size_t>(rows) * (width + 1)), extent_(static_cast<size_t>(rows), {width, -1}) {}
+
+    // The rows [rowBegin, rowEnd] (no more than the constructor's count) to accumulate next.
+    void start(int rowBegin, int rowEnd) {
+        rowBegin_ = rowBegin;
+        rowEnd_ = rowEnd;
+    }
+    int rowBegin() const { return rowBegin_; }
+    int rowEnd() const { return rowEnd_; }
+
+    // Adds `value` (XYZ) to columns [first, last] of `row`, all within the band and the image.
+    void addSpan(int row, int first, int last, const float value[3]) {
+        const int r = row - rowBegin_;
+        Column* line = &columns_[static_cast<size_t>(r) * (width_ + 1)];
+        Column &open = line[first], &close = line[last + 1];
+        for (int c = 0; c < 3; ++c) {
+            open.difference[c] += value[c];
+            close.difference[c] -= value[c];
+        }
+        ++open.spans;
+        --close.spans;
+        extent_[r].first = std::min(extent_[r].first, first);
+        extent_[r].second = std::max(extent_[r].second, last + 1);
+    }
+
+    // Adds the band's sums to the image's rows (nothing where no span was open) and clears the
+    // band for the next start().
+    void flushInto(std::vector<float>& xyz) {
+        for (int row = rowBegin_; row <= rowEnd_; ++row) {
+            auto& [from, to] = extent_[row - rowBegin_];
+            if (from > to) continue;
+            Column* column = &columns_[static_cast<size_t>(row - rowBegin_) * (width_ + 1) + from];
+            float* q = &xyz[(static_cast<size_t>(row) * width_ + from) * 3];
+            double sum[3] = {0.0, 0.0, 0.0};
+            int spans = 0;
+            for (int x = from; x <= to; ++x, ++column, q += 3) {
+                spans += column->spans;
+                if (spans == 0) {
+                    sum[0] = sum[1] = sum[2] = 0.0;
+                } else {
+                    for (int c = 0; c < 3; ++c) {
+                        sum[c] += column->difference[c];
+                        q[c] += static_cast<float>(sum[c]);
+                    }
+                }
+                *column = Column{};
+            }
+            from = width_;
+            to = -1;
+        }
+    }
+
+private:
+    // Per column: the XYZ added there minus the XYZ that stops there, and likewise the spans.
+    struct alignas(32) Column {
+        double difference[3] = {0.0, 0.0, 0.0};
+        int spans = 0;
+    };
+    int width_, rowBegin_ = 0, rowEnd_ = -1;
+    std::vector<Column> columns_;              // rows × (width + 1)
+    std::vector<std::pair<int, int>> extent_;  // per row, the columns touched (first > last: none)
+};
+
+// Adds a primitive's rows within the band to it, times the spectral weight.
+void rasterise(const Primitive& p, const glm::dvec3& weight, int width, int height, BandAccumulator& band) {
     auto add = [&](int column, int row, double value) {
-        if (column < 0 || row < rowBegin || column >= width || row > rowEnd || row >= height || row < 0) return;
-        float* q = &xyz[(static_cast<size_t>(row) * width + column) * 3];
-        q[0] += static_cast<float>(value * weight.x);
-        q[1] += static_cast<float>(value * weight.y);
-        q[2] += static_cast<float>(value * weight.z);
+        if (column < 0 || row < band.rowBegin() || column >= width || row > band.rowEnd() || row >= height || row < 0)
+            return;
+        const float v[3] = {static_cast<float>(value * weight.x), static_cast<float>(value * weight.y),
+                            static_cast<float>(value * weight.z)};
+        band.addSpan(row, column, column, v);
     };
     if (p.point) {
         const double fx = p.x[0] - 0.5, fy = p.y[0] - 0.5;
@@ -111,18 +181,13 @@ void rasterise(const Primitive& p, const glm::dvec3& weight, int rowBegin, int r
     }
     const float v[3] = {static_cast<float>(p.value * weight.x), static_cast<float>(p.value * weight.y),
                         static_cast<float>(p.value * weight.z)};
-    const int top = std::max({p.rowMin, rowBegin, 0}), bottom = std::min({p.rowMax, rowEnd, height - 1});
+    const int top = std::max({p.rowMin, band.rowBegin(), 0}), bottom = std::min({p.rowMax, band.rowEnd(), height - 1});
     for (int row = top; row <= bottom; ++row) {
         int first = 0, last = -1;
         if (!span(p, row + 0.5, &first, &last)) continue;
         first = std::max(first, 0);
         last = std::min(last, width - 1);
-        float* q = &xyz[(static_cast<size_t>(row) * width + first) * 3];
-        for (int column = first; column <= last; ++column, q += 3) {
-            q[0] += v[0];
-            q[1] += v[1];
-            q[2] += v[2];
-        }
+        if (first <= last) band.addSpan(row, first, last, v);
     }
 }
 
@@ -155,14 +220,14 @@ void bucket(Job& job, int height) {
     job.primitives.swap(sorted);
 }
 
-// Adds the job's primitives touching rows [rowBegin, rowEnd] (within one band) to the image.
-void rasteriseBand(const Job& job, const glm::dvec3& weight, int band, int width, int height, std::vector<float>& xyz) {
+// Adds the job's primitives touching the band's rows to it.
+void rasteriseBand(const Job& job, const glm::dvec3& weight, int width, int height, BandAccumulator& band) {
     if (job.primitives.empty()) return;
-    const int rowBegin = band * kBandRows, rowEnd = std::min(height, rowBegin + kBandRows) - 1;
-    for (int b = std::max(0, band - job.maxBandSpan); b <= band; ++b)
+    const int index = band.rowBegin() / kBandRows;
+    for (int b = std::max(0, index - job.maxBandSpan); b <= index; ++b)
         for (int k = job.bandStart[b]; k < job.bandStart[b + 1]; ++k) {
             const Primitive& p = job.primitives[k];
-            if (p.rowMax >= rowBegin) rasterise(p, weight, rowBegin, rowEnd, width, height, xyz);
+            if (p.rowMax >= band.rowBegin()) rasterise(p, weight, width, height, band);
         }
 }
 
@@ -308,13 +373,19 @@ PreviewImage renderPreview(const LensSystem& lens, const PreviewLight& light, co
     const int bands = (height + kBandRows - 1) / kBandRows;
     image.direct = {"direct", std::vector<float>(size, 0.0f)};
     image.ghosts = {"ghost", std::vector<float>(size, 0.0f)};
+    auto startBand = [&](BandAccumulator& rows, int b) { rows.start(b * kBandRows, std::min(height, (b + 1) * kBandRows) - 1); };
     tbb::parallel_for(tbb::blocked_range<int>(0, bands, 1), [&](const tbb::blocked_range<int>& range) {
+        BandAccumulator direct(width, kBandRows), ghosts(width, kBandRows);
         for (int b = range.begin(); b != range.end(); ++b) {
+            startBand(direct, b);
+            startBand(ghosts, b);
             for (size_t w = 0; w < lambdas; ++w)
-                rasteriseBand(jobs[kept.size() * lambdas + w], weights[w], b, width, height, image.direct.xyz);
+                rasteriseBand(jobs[kept.size() * lambdas + w], weights[w], width, height, direct);
             for (size_t k = 0; k < kept.size(); ++k)
                 for (size_t w = 0; w < lambdas; ++w)
-                    rasteriseBand(jobs[k * lambdas + w], weights[w], b, width, height, image.ghosts.xyz);
+                    rasteriseBand(jobs[k * lambdas + w], weights[w], width, height, ghosts);
+            direct.flushInto(image.direct.xyz);
+            ghosts.flushInto(image.ghosts.xyz);
         }
     }, tbb::simple_partitioner());
     const double efl = std::abs(analyseParaxial(lens, kLineDNm).eflMm);
@@ -333,9 +404,12 @@ PreviewImage renderPreview(const LensSystem& lens, const PreviewLight& light, co
                 XyzLayer& layer = image.perGhost[k];
                 layer.name = kept[k]->path.label();
                 layer.xyz.assign(size, 0.0f);
-                for (int b = 0; b < bands; ++b)
-                    for (size_t w = 0; w < lambdas; ++w)
-                        rasteriseBand(jobs[k * lambdas + w], weights[w], b, width, height, layer.xyz);
+                BandAccumulator rows(width, kBandRows);
+                for (int b = 0; b < bands; ++b) {
+                    startBand(rows, b);
+                    for (size_t w = 0; w < lambdas; ++w) rasteriseBand(jobs[k * lambdas + w], weights[w], width, height, rows);
+                    rows.flushInto(layer.xyz);
+                }
             }
         }, tbb::simple_partitioner());
     }
