@@ -230,7 +230,8 @@ private:
     int stamp_ = 0;
     std::vector<BundleRay> rays_;  // scratch for bringTo
     std::vector<int> owners_;
-    std::vector<StepOutcome> outcomes_;
+    std::vector<PacketTracer::End> ends_;
+    std::vector<double*> marginRows_;
 };
 
 }  // namespace flare::mesher

@@ -154,40 +154,56 @@ void Mesher::bringTo(const std::vector<int>& candidates, int step) {
     if (ids.empty()) return;
     // By the event they are at, so that each joins the batch when it gets there.
     std::stable_sort(ids.begin(), ids.end(), [&](int a, int b) { return samples_[a].reached < samples_[b].reached; });
-    // The batch: rays_[k] belongs to owners_[k]; the dead leave it after each event.
+    // The batch: rays_[k] belongs to owners_[k]; the dead leave it after each event. Once every
+    // ray has joined, the tracer's events up to `step` run at once (the rays stay in its lanes).
     rays_.clear();
     owners_.clear();
     size_t next = 0;
-    for (int k = samples_[ids[0]].reached; k <= step; ++k) {
+    for (int k = samples_[ids[0]].reached; k <= step;) {
         for (; next < ids.size() && samples_[ids[next]].reached == k; ++next) {
             rays_.push_back(samples_[ids[next]].state);
             owners_.push_back(ids[next]);
         }
-        if (rays_.empty()) continue;
-        outcomes_.assign(rays_.size(), StepOutcome{});
+        if (rays_.empty()) {
+            ++k;
+            continue;
+        }
+        size_t kept = 0;
         if (k < tracerSteps_) {
-            stepping_->advance(k, rays_, outcomes_, true);
+            const int through = next == ids.size() ? std::min(step, tracerSteps_ - 1) : k;
+            ends_.resize(rays_.size());
+            marginRows_.resize(rays_.size());
+            for (size_t b = 0; b < rays_.size(); ++b) marginRows_[b] = &margins_[static_cast<size_t>(owners_[b]) * steps_];
+            stepping_->advance(k, through, rays_, ends_, marginRows_);
+            for (size_t b = 0; b < rays_.size(); ++b) {
+                if (ends_[b].step >= 0) {
+                    Sample& s = samples_[owners_[b]];
+                    s.state = rays_[b];
+                    s.reached = ends_[b].step + 1;
+                    s.death = ends_[b].step;
+                    continue;
+                }
+                rays_[kept] = rays_[b];
+                owners_[kept++] = owners_[b];
+            }
+            k = through + 1;
         } else {  // the sensor rectangle, for the analysis
             const double halfW = 0.5 * lens_.sensor().widthMm, halfH = 0.5 * lens_.sensor().heightMm;
             for (size_t b = 0; b < rays_.size(); ++b) {
+                const int id = owners_[b];
                 const glm::dvec3& p = rays_[b].ray.originMm;
-                outcomes_[b].margin = sensorMargin(lens_, {p.x, p.y});
-                outcomes_[b].alive = std::abs(p.x) <= halfW && std::abs(p.y) <= halfH;
+                margins_[static_cast<size_t>(id) * steps_ + k] = sensorMargin(lens_, {p.x, p.y});
+                if (!(std::abs(p.x) <= halfW && std::abs(p.y) <= halfH)) {
+                    Sample& s = samples_[id];
+                    s.state = rays_[b];
+                    s.reached = k + 1;
+                    s.death = k;
+                    continue;
+                }
+                rays_[kept] = rays_[b];
+                owners_[kept++] = id;
             }
-        }
-        size_t kept = 0;
-        for (size_t b = 0; b < rays_.size(); ++b) {
-            const int id = owners_[b];
-            margins_[static_cast<size_t>(id) * steps_ + k] = outcomes_[b].margin;
-            if (!outcomes_[b].alive) {
-                Sample& s = samples_[id];
-                s.state = rays_[b];
-                s.reached = k + 1;
-                s.death = k;
-                continue;
-            }
-            rays_[kept] = rays_[b];
-            owners_[kept++] = id;
+            ++k;
         }
         rays_.resize(kept);
         owners_.resize(kept);

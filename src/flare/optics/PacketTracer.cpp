@@ -463,19 +463,21 @@ PacketTracer::PacketTracer(const BundleTracer& path) : path_(path) {
 
 namespace {
 
-// BundleTracer's own step for the listed rays of a batch (all going), written back into the lanes;
-// returns how many are still going.
-int scalarStep(const BundleTracer& path, int step, detail::PacketLanes& b, const int* which, int count) {
+// BundleTracer's own step for the listed rays of a batch (all going), written back into the lanes
+// (with their margins when asked); returns how many are still going.
+int scalarStep(const BundleTracer& path, int step, detail::PacketLanes& b, const int* which, int count,
+               bool margins = false) {
     BundleRay rays[detail::kPacketBatch];
     StepOutcome outcomes[detail::kPacketBatch];
     for (int j = 0; j < count; ++j) {
         const int i = which[j];
         rays[j] = {{{b.ox[i], b.oy[i], b.oz[i]}, {b.dx[i], b.dy[i], b.dz[i]}}, b.throughput[i]};
     }
-    path.advance(step, std::span<BundleRay>(rays, count), std::span<StepOutcome>(outcomes, count), false);
+    path.advance(step, std::span<BundleRay>(rays, count), std::span<StepOutcome>(outcomes, count), margins);
     int going = 0;
     for (int j = 0; j < count; ++j) {
         const int i = which[j];
+        if (margins) b.margin[i] = outcomes[j].margin;
         if (!outcomes[j].alive) {
             b.fate[i] = detail::fateCode(step, outcomes[j].failure);
             continue;
@@ -507,62 +509,90 @@ void PacketTracer::scalarWeights(const detail::PacketStep& s, detail::PacketLane
     }
 }
 
-void PacketTracer::advance(int step, std::span<BundleRay> rays, std::span<StepOutcome> outcomes, bool margins) const {
+void PacketTracer::advance(int first, int last, std::span<BundleRay> rays, std::span<End> ends,
+                           std::span<double* const> margins) const {
     using Kind = detail::PacketStep::Kind;
-    const detail::PacketStep& s = steps_[step];
-    // The sensor (no square root to save), aspheres, and a polygonal iris's margins (its sector
-    // search) take BundleTracer's step.
-    if (s.kind == Kind::Sensor || s.kind == Kind::WrongExit || s.kind == Kind::Scalar ||
-        (s.kind == Kind::Stop && !s.roundIris && margins)) {
-        path_.advance(step, rays, outcomes, margins);
-        return;
-    }
     constexpr int kLanes = detail::kPacketMaxLanes;
-    const detail::PacketMargins wanted = margins ? detail::PacketMargins::All : detail::PacketMargins::Cheap;
+    const bool withMargins = !margins.empty();
+    const detail::PacketMargins wanted = withMargins ? detail::PacketMargins::All : detail::PacketMargins::None;
     detail::PacketLanes b;
-    BundleRay deferredRays[detail::kPacketBatch];
-    StepOutcome deferredOutcomes[detail::kPacketBatch];
     int which[detail::kPacketBatch];
+    int index[detail::kPacketBatch];  // the ray in each lane, −1 for padding
     for (size_t begin = 0; begin < rays.size(); begin += detail::kPacketBatch) {
         const int count = static_cast<int>(std::min<size_t>(detail::kPacketBatch, rays.size() - begin));
-        const int active = (count + kLanes - 1) / kLanes * kLanes;
+        int active = (count + kLanes - 1) / kLanes * kLanes;
         for (int i = 0; i < active; ++i) {
             const BundleRay r = i < count ? rays[begin + i] : BundleRay{};
             b.ox[i] = r.ray.originMm.x, b.oy[i] = r.ray.originMm.y, b.oz[i] = r.ray.originMm.z;
             b.dx[i] = r.ray.direction.x, b.dy[i] = r.ray.direction.y, b.dz[i] = r.ray.direction.z;
             b.throughput[i] = r.throughput;
             b.fate[i] = i < count ? 0.0 : 1.0;  // padding lanes never run
+            index[i] = i < count ? static_cast<int>(begin) + i : -1;
         }
-        const detail::PacketStepResult result =
-            HWY_DYNAMIC_DISPATCH(AdvancePacket)(s, step, b, static_cast<size_t>(active), wanted);
-        if (result.left & detail::kScalarWeights) scalarWeights(s, b, active);
-        int deferred = 0;
-        for (int i = 0; i < count; ++i) {
-            if ((result.left & detail::kDeferredRays) && b.deferred[i] != 0.0) {
-                deferredRays[deferred] = rays[begin + i];
-                which[deferred++] = i;
-                continue;
+        // A lane leaving the batch: its ray's new state, or where it ended.
+        auto leave = [&](int i) {
+            if (index[i] < 0) return;
+            if (b.fate[i] == 0.0) {
+                BundleRay& r = rays[index[i]];
+                r.ray.originMm = {b.ox[i], b.oy[i], b.oz[i]};
+                r.ray.direction = {b.dx[i], b.dy[i], b.dz[i]};
+                r.throughput = b.throughput[i];
+                ends[index[i]] = End{};
+                return;
             }
-            StepOutcome& o = outcomes[begin + i];
-            o = StepOutcome{};
-            o.margin = b.margin[i];
-            if (b.fate[i] != 0.0) {
-                o.alive = false;
-                o.failure = static_cast<TraceStatus>((static_cast<int>(b.fate[i]) - 1) % 8);
-                continue;
+            const int code = static_cast<int>(b.fate[i]) - 1;
+            ends[index[i]] = End{code / 8, static_cast<TraceStatus>(code % 8)};
+        };
+        for (int step = first; step <= last; ++step) {
+            const detail::PacketStep& s = steps_[step];
+            int n = 0, going = 0;
+            // The sensor, aspheric iris planes and a polygonal iris's margins (its sector search)
+            // take BundleTracer's step.
+            if (s.kind == Kind::Sensor || s.kind == Kind::WrongExit || s.kind == Kind::Scalar ||
+                (s.kind == Kind::Stop && !s.roundIris && withMargins)) {
+                for (int i = 0; i < active; ++i)
+                    if (b.fate[i] == 0.0) which[n++] = i;
+                going = scalarStep(path_, step, b, which, n, withMargins);
+            } else {
+                const detail::PacketStepResult result =
+                    HWY_DYNAMIC_DISPATCH(AdvancePacket)(s, step, b, static_cast<size_t>(active), wanted);
+                going = result.going;
+                if (result.left & detail::kScalarWeights) scalarWeights(s, b, active);
+                if (result.left & detail::kDeferredRays) {
+                    for (int i = 0; i < active; ++i)
+                        if (b.deferred[i] != 0.0) which[n++] = i;
+                    going += scalarStep(path_, step, b, which, n, withMargins);
+                }
             }
-            BundleRay& r = rays[begin + i];
-            r.ray.originMm = {b.ox[i], b.oy[i], b.oz[i]};
-            r.ray.direction = {b.dx[i], b.dy[i], b.dz[i]};
-            r.throughput = b.throughput[i];
+            if (withMargins) {
+                // The rays that entered this step: going on, or ended here.
+                const double endedHere = detail::fateCode(step, TraceStatus::Ok);
+                for (int i = 0; i < active; ++i)
+                    if (index[i] >= 0 && (b.fate[i] == 0.0 || (b.fate[i] >= endedHere && b.fate[i] < endedHere + 8.0)))
+                        margins[index[i]][step] = b.margin[i];
+            }
+            // Once a quarter of the lanes have ended, the going ones move together (as trace()).
+            const int needed = (going + kLanes - 1) / kLanes * kLanes;
+            if (4 * needed > 3 * active) continue;
+            int m = 0;
+            for (int i = 0; i < active; ++i) {
+                if (b.fate[i] != 0.0) {
+                    leave(i);
+                    continue;
+                }
+                b.ox[m] = b.ox[i], b.oy[m] = b.oy[i], b.oz[m] = b.oz[i];
+                b.dx[m] = b.dx[i], b.dy[m] = b.dy[i], b.dz[m] = b.dz[i];
+                b.throughput[m] = b.throughput[i];
+                b.fate[m] = 0.0;
+                index[m++] = index[i];
+            }
+            for (; m < needed; ++m) {
+                b.fate[m] = 1.0;
+                index[m] = -1;
+            }
+            active = needed;
         }
-        if (deferred == 0) continue;
-        path_.advance(step, std::span<BundleRay>(deferredRays, deferred), std::span<StepOutcome>(deferredOutcomes, deferred),
-                      margins);
-        for (int j = 0; j < deferred; ++j) {
-            rays[begin + which[j]] = deferredRays[j];
-            outcomes[begin + which[j]] = deferredOutcomes[j];
-        }
+        for (int i = 0; i < active; ++i) leave(i);
     }
 }
 

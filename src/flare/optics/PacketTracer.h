@@ -76,9 +76,20 @@ public:
     // bit tracePath's (with the BundleTracer's tables, equal to BundleTracer's).
     void trace(const PupilGrid& grid, std::span<const glm::dvec2> pupilMm, std::span<BundleLanding> out) const;
 
-    // As BundleTracer::advance: step `step` for every ray (all alive), the same rays, outcomes and
-    // margins to the last bit.
-    void advance(int step, std::span<BundleRay> rays, std::span<StepOutcome> outcomes, bool margins) const;
+    // Where and why a ray of advance() ended: the step, −1 if it went through every step asked.
+    struct End {
+        int step = -1;
+        TraceStatus status = TraceStatus::Ok;
+    };
+
+    // As BundleTracer::advance for the steps first..last in turn, for rays all going at `first`,
+    // which stay in the vector lanes from step to step: a ray that goes through them all leaves
+    // as advance() step by step would leave it, to the last bit; one that ends keeps its state
+    // from before the call, and ends[i] says where and why. With `margins` (one row per ray,
+    // indexed by step, or empty for none), margins[i][k] receives the StepOutcome::margin of step
+    // k for every step the ray entered, the bits advance(k, …, true) gives.
+    void advance(int first, int last, std::span<BundleRay> rays, std::span<End> ends,
+                 std::span<double* const> margins) const;
     int stepCount() const { return path_.stepCount(); }
 
     const BundleTracer& path() const { return path_; }

@@ -186,16 +186,53 @@ TEST(PacketTracer, NonFiniteFarAndEdgeRaysEqualTracePath) {
     });
 }
 
-// Step by step (what the pupil mesher does): every step's rays, outcomes and margins equal
-// BundleTracer::advance's to the last bit (NaN where it has none), with and without margins, on
-// a round and a polygonal iris, with and without tables, and for batches that are not a
-// multiple of the vector length.
+// What BundleTracer::advance does to rays over steps first..last, one step at a time: each ray's
+// state after the last step (if it went through), where and why it ended, and its margin at each
+// step it entered (NaN elsewhere).
+struct StepByStep {
+    std::vector<BundleRay> rays;
+    std::vector<PacketTracer::End> ends;
+    std::vector<std::vector<double>> margins;
+};
+
+StepByStep stepByStep(const BundleTracer& bundle, std::vector<BundleRay> rays, int first, int last, bool margins) {
+    StepByStep out;
+    out.ends.resize(rays.size());
+    out.margins.assign(rays.size(), std::vector<double>(bundle.stepCount(), std::numeric_limits<double>::quiet_NaN()));
+    std::vector<size_t> owner(rays.size());
+    for (size_t i = 0; i < rays.size(); ++i) owner[i] = i;
+    out.rays = rays;
+    for (int step = first; step <= last && !rays.empty(); ++step) {
+        std::vector<StepOutcome> outcomes(rays.size());
+        bundle.advance(step, rays, outcomes, margins);
+        size_t kept = 0;
+        for (size_t i = 0; i < rays.size(); ++i) {
+            if (margins) out.margins[owner[i]][step] = outcomes[i].margin;
+            if (!outcomes[i].alive) {
+                out.ends[owner[i]] = {step, outcomes[i].failure};
+                continue;
+            }
+            out.rays[owner[i]] = rays[i];
+            rays[kept] = rays[i];
+            owner[kept++] = owner[i];
+        }
+        rays.resize(kept);
+        owner.resize(kept);
+    }
+    return out;
+}
+
+// The pupil mesher's stepping: PacketTracer::advance over a range of steps (the rays kept in the
+// lanes), and one step per call, equal to BundleTracer::advance step by step to the last bit:
+// every ray's end (step and status), state and margins (NaN where it has none), with and without
+// margins, on a round and a polygonal iris, with and without tables, starting at the first step
+// and later, for batches that are not a multiple of the vector length.
 TEST(PacketTracer, AdvanceEqualsBundleTracerStepByStep) {
     struct Case {
         const char* file;
         bool roundIris;
     };
-    long compared[2] = {}, marginsSeen = 0, nanSeen = 0;
+    long compared[2] = {}, marginsSeen = 0, nanSeen = 0, ended = 0;
     for (const Case& c : {Case{"lenses/double-gauss-50mm.lens", false}, Case{"lenses/double-gauss-50mm.lens", true},
                           Case{"lenses/zoom-24-70mm.lens", false}, Case{"lenses/fisheye-16mm.lens", false}}) {
         LensPrescription prescription = loadLensFile(test::sourcePath(c.file));
@@ -213,39 +250,75 @@ TEST(PacketTracer, AdvanceEqualsBundleTracerStepByStep) {
                     const BundleTracer bundle(lens, indices, paths[p].reflections, variant > 0,
                                               variant == 2 ? &tables : nullptr);
                     const PacketTracer packets(bundle);
+                    const int last = bundle.stepCount() - 1;
                     for (bool margins : {false, true}) {
-                        const std::string what = target + " " + c.file + (c.roundIris ? " round " : " ") +
-                                                 paths[p].label() + " variant " + std::to_string(variant) +
-                                                 (margins ? " margins" : "");
-                        std::vector<BundleRay> expected, rays;
-                        for (const glm::dvec2& q : points) expected.push_back({grid.ray(q.x, q.y), 1.0});
-                        expected.resize(expected.size() - 3);  // not a multiple of any vector length
-                        rays = expected;
-                        for (int step = 0; step < bundle.stepCount() && !rays.empty(); ++step) {
-                            std::vector<StepOutcome> want(rays.size()), got(rays.size());
-                            bundle.advance(step, expected, want, margins);
-                            packets.advance(step, rays, got, margins);
-                            size_t kept = 0;
-                            for (size_t i = 0; i < rays.size(); ++i) {
-                                ASSERT_EQ(got[i].alive, want[i].alive) << what << " step " << step << " ray " << i;
-                                ASSERT_EQ(got[i].failure, want[i].failure) << what << " step " << step << " ray " << i;
-                                ASSERT_EQ(std::isnan(got[i].margin), std::isnan(want[i].margin)) << what << " step " << step;
-                                if (!std::isnan(want[i].margin))
-                                    ASSERT_EQ(got[i].margin, want[i].margin) << what << " step " << step << " ray " << i;
-                                marginsSeen += !std::isnan(want[i].margin) && want[i].margin != -1.0;
-                                nanSeen += std::isnan(want[i].margin);
-                                ++compared[margins];
-                                if (!want[i].alive) continue;
-                                ASSERT_EQ(rays[i].throughput, expected[i].throughput) << what << " step " << step;
-                                for (int k = 0; k < 3; ++k) {
-                                    ASSERT_EQ(rays[i].ray.originMm[k], expected[i].ray.originMm[k]) << what << " step " << step;
-                                    ASSERT_EQ(rays[i].ray.direction[k], expected[i].ray.direction[k]) << what << " step " << step;
-                                }
-                                rays[kept] = rays[i];
-                                expected[kept++] = expected[i];
+                        std::vector<BundleRay> start;
+                        for (const glm::dvec2& q : points) start.push_back({grid.ray(q.x, q.y), 1.0});
+                        start.resize(start.size() - 3);  // not a multiple of any vector length
+                        for (int first : {0, 1}) {
+                            std::vector<BundleRay> rays = start;
+                            if (first == 1) {  // the rays that went through step 0
+                                const StepByStep zero = stepByStep(bundle, start, 0, 0, false);
+                                rays.clear();
+                                for (size_t i = 0; i < start.size(); ++i)
+                                    if (zero.ends[i].step < 0) rays.push_back(zero.rays[i]);
                             }
-                            rays.resize(kept);
-                            expected.resize(kept);
+                            const StepByStep want = stepByStep(bundle, rays, first, last, margins);
+                            for (bool oneCall : {true, false}) {
+                                const std::string what = target + " " + c.file + (c.roundIris ? " round " : " ") +
+                                                         paths[p].label() + " variant " + std::to_string(variant) +
+                                                         (margins ? " margins" : "") + " from " + std::to_string(first) +
+                                                         (oneCall ? " in one call" : " a step per call");
+                                std::vector<BundleRay> got = rays;
+                                std::vector<PacketTracer::End> ends(rays.size());
+                                std::vector<std::vector<double>> marginTable(
+                                    rays.size(), std::vector<double>(bundle.stepCount(), std::numeric_limits<double>::quiet_NaN()));
+                                std::vector<double*> rows;
+                                for (auto& row : marginTable) rows.push_back(row.data());
+                                if (oneCall) {
+                                    packets.advance(first, last, got, ends, margins ? rows : std::vector<double*>{});
+                                } else {
+                                    // The going rays only, one step per call (as the mesher does while rays join).
+                                    std::vector<size_t> owner;
+                                    for (size_t i = 0; i < rays.size(); ++i) owner.push_back(i);
+                                    for (int step = first; step <= last && !owner.empty(); ++step) {
+                                        std::vector<BundleRay> batch;
+                                        std::vector<double*> batchRows;
+                                        for (size_t i : owner) batch.push_back(got[i]), batchRows.push_back(rows[i]);
+                                        std::vector<PacketTracer::End> batchEnds(batch.size());
+                                        packets.advance(step, step, batch, batchEnds, margins ? batchRows : std::vector<double*>{});
+                                        std::vector<size_t> going;
+                                        for (size_t k = 0; k < owner.size(); ++k) {
+                                            ends[owner[k]] = batchEnds[k];
+                                            if (batchEnds[k].step >= 0) continue;
+                                            got[owner[k]] = batch[k];
+                                            going.push_back(owner[k]);
+                                        }
+                                        owner = going;
+                                    }
+                                }
+                                for (size_t i = 0; i < rays.size(); ++i) {
+                                    ASSERT_EQ(ends[i].step, want.ends[i].step) << what << " ray " << i;
+                                    ASSERT_EQ(ends[i].status, want.ends[i].status) << what << " ray " << i;
+                                    for (int step = first; step <= last; ++step) {
+                                        const double m = marginTable[i][step], w = want.margins[i][step];
+                                        ASSERT_EQ(std::isnan(m), std::isnan(w)) << what << " ray " << i << " step " << step;
+                                        if (!std::isnan(w)) ASSERT_EQ(m, w) << what << " ray " << i << " step " << step;
+                                        marginsSeen += !std::isnan(w) && w != -1.0;
+                                        nanSeen += margins && std::isnan(w) && (ends[i].step < 0 || step <= ends[i].step);
+                                    }
+                                    ++compared[margins];
+                                    if (ends[i].step >= 0) {
+                                        ++ended;
+                                        continue;
+                                    }
+                                    ASSERT_EQ(got[i].throughput, want.rays[i].throughput) << what << " ray " << i;
+                                    for (int k = 0; k < 3; ++k) {
+                                        ASSERT_EQ(got[i].ray.originMm[k], want.rays[i].ray.originMm[k]) << what << " ray " << i;
+                                        ASSERT_EQ(got[i].ray.direction[k], want.rays[i].ray.direction[k]) << what << " ray " << i;
+                                    }
+                                }
+                            }
                         }
                     }
                 }
@@ -256,6 +329,7 @@ TEST(PacketTracer, AdvanceEqualsBundleTracerStepByStep) {
     EXPECT_GT(compared[1], 10000);
     EXPECT_GT(marginsSeen, 10000);
     EXPECT_GT(nanSeen, 100);
+    EXPECT_GT(ended, 10000);
 }
 
 }  // namespace
