@@ -26,6 +26,12 @@ public:
     double apothemMm() const { return apothemMm_; }  // bladed: every point this near passes (0 round)
     double rotationRad() const { return rotationRad_; }
     double curvature() const { return curvature_; }
+    // What margin() computes with (for a vector version of it): the unit mid-normal of edge k
+    // (0 ≤ k < blades) and a bowed blade's arc (radius 0: straight blades).
+    double edgeNormalX(int k) const { return normalX_[k]; }
+    double edgeNormalY(int k) const { return normalY_[k]; }
+    double arcCentreMm() const { return arcCentreMm_; }
+    double arcRadiusMm() const { return arcRadiusMm_; }
 
 private:
     int blades_ = 0;

@@ -92,6 +92,34 @@ HWY_INLINE V LookupTable(D d, const detail::PacketStep& s, hn::Mask<D> tabled, V
     return hn::Add(hn::Add(hn::Add(a, b), e), f);
 }
 
+// Iris::margin of a polygonal iris at (x, y), r2 = x² + y², in its order of operations: the
+// sector whose edge's mid-normal has the largest projection (the first of equals), then the
+// opening's radius in the point's direction.
+template <class V>
+HWY_INLINE V PolygonMargin(const detail::PacketStep& s, V x, V y, V r2) {
+    const hn::DFromV<V> d;
+    const V zero = hn::Zero(d), one = hn::Set(d, 1.0);
+    V projection = hn::Set(d, -1e300);
+    V nx = hn::Set(d, s.edgeNormalX[0]), ny = hn::Set(d, s.edgeNormalY[0]);
+    for (int k = 0; k < s.blades; ++k) {
+        const V kx = hn::Set(d, s.edgeNormalX[k]), ky = hn::Set(d, s.edgeNormalY[k]);
+        const V p = hn::Add(hn::Mul(x, kx), hn::Mul(y, ky));
+        const auto larger = hn::Gt(p, projection);
+        projection = hn::IfThenElse(larger, p, projection);
+        nx = hn::IfThenElse(larger, kx, nx);
+        ny = hn::IfThenElse(larger, ky, ny);
+    }
+    const V r = hn::Sqrt(r2);
+    const V c = hn::Div(projection, r);
+    const V sine = hn::Div(hn::Sub(hn::Mul(nx, y), hn::Mul(ny, x)), r);
+    const V rho = s.arcRadiusMm == 0.0
+                      ? hn::Div(hn::Set(d, s.apothemMm), c)
+                      : hn::Add(hn::Mul(hn::Set(d, s.arcCentreMm), c),
+                                hn::Sqrt(hn::Sub(hn::Set(d, s.arcRadiusMm * s.arcRadiusMm),
+                                                 hn::Mul(hn::Mul(hn::Set(d, s.arcCentreMm * s.arcCentreMm), sine), sine))));
+    return hn::IfThenElse(hn::Eq(r2, zero), hn::Set(d, -1.0), hn::Sub(hn::Div(r2, hn::Mul(rho, rho)), one));
+}
+
 // intersect()'s Newton iteration on an asphere, F(t) = z(t) − sag(r²(t)), for the lanes of
 // `alive`, in its order of operations: from the conic hit where there is one (else the vertex
 // plane), at most kMaxNewtonIterations steps, each lane stopping where intersect() returns.
@@ -254,6 +282,7 @@ detail::PacketStepResult AdvancePacket(const detail::PacketStep& s, int step, de
                         margin = hn::IfThenElse(hn::AndNot(blocked, alive), hn::Set(d, -1.0), margin);
                     fail(blocked, TraceStatus::BlockedByIris);
                 } else {
+                    if (margins == detail::PacketMargins::All) margin = hn::IfThenElse(alive, PolygonMargin(s, px, py, r2), margin);
                     fail(hn::Gt(r2, hn::Set(d, s.irisOuter2Mm2)), TraceStatus::BlockedByIris);
                     defer(hn::Not(hn::Le(r2, hn::Set(d, s.irisInner2Mm2))));  // near the blades: Iris::contains
                     if (margins == detail::PacketMargins::Cheap) margin = hn::IfThenElse(alive, hn::Set(d, -1.0), margin);
@@ -454,6 +483,14 @@ PacketTracer::PacketTracer(const BundleTracer& path) : path_(path) {
                 s.roundIris = iris.blades() == 0;
                 s.irisInner2Mm2 = s.roundIris ? iris.radiusMm() * iris.radiusMm() : iris.apothemMm() * iris.apothemMm();
                 s.irisOuter2Mm2 = iris.circumradiusMm() * iris.circumradiusMm();
+                s.blades = iris.blades();
+                for (int k = 0; k < std::min(s.blades, detail::PacketStep::kLaneBlades); ++k) {
+                    s.edgeNormalX[k] = iris.edgeNormalX(k);
+                    s.edgeNormalY[k] = iris.edgeNormalY(k);
+                }
+                s.apothemMm = iris.apothemMm();
+                s.arcCentreMm = iris.arcCentreMm();
+                s.arcRadiusMm = iris.arcRadiusMm();
                 break;
             }
         }
@@ -549,7 +586,7 @@ void PacketTracer::advance(int first, int last, std::span<BundleRay> rays, std::
             // The sensor, aspheric iris planes and a polygonal iris's margins (its sector search)
             // take BundleTracer's step.
             if (s.kind == Kind::Sensor || s.kind == Kind::WrongExit || s.kind == Kind::Scalar ||
-                (s.kind == Kind::Stop && !s.roundIris && withMargins)) {
+                (s.kind == Kind::Stop && s.blades > detail::PacketStep::kLaneBlades && withMargins)) {
                 for (int i = 0; i < active; ++i)
                     if (b.fate[i] == 0.0) which[n++] = i;
                 going = scalarStep(path_, step, b, which, n, withMargins);

@@ -56,6 +56,12 @@ struct PacketStep {
     double eta = 1.0;             // n1 / n2
     double irisInner2Mm2 = 0.0;   // Stop: squared radius within which every point passes
     double irisOuter2Mm2 = 0.0;   // Stop: beyond it none passes (between: the scalar test)
+    // Stop, a polygonal iris of at most kLaneBlades blades: Iris::margin in the lanes (more blades
+    // take the scalar step when margins are asked).
+    static constexpr int kLaneBlades = 16;
+    int blades = 0;
+    double edgeNormalX[kLaneBlades] = {}, edgeNormalY[kLaneBlades] = {};
+    double apothemMm = 0.0, arcCentreMm = 0.0, arcRadiusMm = 0.0;
     double sensorZMm = 0.0, halfWidthMm = 0.0, halfHeightMm = 0.0, sensorReflectance = 1.0;
     // Conic, weighted, with InterfaceTables: the factor's table (values and slopes at cos = i /
     // intervals), looked up in the lanes; cosines in [exactFrom, exactTo] get the exact response.
