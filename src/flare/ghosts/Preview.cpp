@@ -12,6 +12,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/partitioner.h>
 
+#include "flare/core/RoundingClones.h"
 #include "flare/ghosts/PupilMesh.h"
 #include "flare/optics/BundleTracer.h"
 #include "flare/optics/Paraxial.h"
@@ -36,7 +37,7 @@ struct Primitive {
 // Pixel columns whose centres lie inside the triangle on the scanline y: between the long edge
 // (0→2) and the short edge the scanline crosses (0→1 above vertex 1, 1→2 below). The same
 // function counts a triangle's centres and fills them, so that its power is spread exactly.
-bool span(const Primitive& p, double y, int* first, int* last) {
+[[gnu::always_inline]] inline bool span(const Primitive& p, double y, int* first, int* last) {
     if (!(y >= p.y[0] && y < p.y[2])) return false;
     const double along = p.x[0] + (y - p.y[0]) * p.slope[0];
     const double across = y < p.y[1] ? p.x[0] + (y - p.y[0]) * p.slope[1] : p.x[1] + (y - p.y[1]) * p.slope[2];
@@ -59,6 +60,7 @@ Primitive point(const glm::dvec2& p, double value) {
 // also off the image, so that the share of power that falls off the sensor is dropped rather than
 // piled onto the visible part; tiny ones become points (bilinear splats, which keep sub-pixel
 // positions and conserve power).
+FLARE_ROUNDING_CLONES
 Primitive triangle(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c, double power) {
     const double area = 0.5 * std::abs((b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y));
     const glm::dvec2 lo = glm::min(a, glm::min(b, c)), hi = glm::max(a, glm::max(b, c));
@@ -161,7 +163,8 @@ private:
 };
 
 // Adds a primitive's rows within the band to it, times the spectral weight.
-void rasterise(const Primitive& p, const glm::dvec3& weight, int width, int height, BandAccumulator& band) {
+[[gnu::always_inline]] inline void rasterise(const Primitive& p, const glm::dvec3& weight, int width, int height,
+                                             BandAccumulator& band) {
     auto add = [&](int column, int row, double value) {
         if (column < 0 || row < band.rowBegin() || column >= width || row > band.rowEnd() || row >= height || row < 0)
             return;
@@ -221,6 +224,7 @@ void bucket(Job& job, int height) {
 }
 
 // Adds the job's primitives touching the band's rows to it.
+FLARE_ROUNDING_CLONES
 void rasteriseBand(const Job& job, const glm::dvec3& weight, int width, int height, BandAccumulator& band) {
     if (job.primitives.empty()) return;
     const int index = band.rowBegin() / kBandRows;

@@ -11,6 +11,7 @@
 #include <glm/matrix.hpp>
 
 #include "flare/core/Random.h"
+#include "flare/core/RoundingClones.h"
 #include "flare/film/Film.h"
 
 namespace flare {
@@ -375,6 +376,7 @@ double GhostBeam::powerOnSensor() const {
     return total;
 }
 
+FLARE_ROUNDING_CLONES
 void GhostBeam::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3& scale, std::uint64_t seed,
                           double* rows) const {
     const int width = frame_.widthPx, height = frame_.heightPx;
