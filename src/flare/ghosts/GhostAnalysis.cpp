@@ -8,6 +8,7 @@
 #include <glm/geometric.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/partitioner.h>
 
 #include "flare/ghosts/PupilMesh.h"
@@ -183,11 +184,11 @@ int keepSpectrallyStrongGhosts(const LensSystem& lens, const Spectrum& spectrum,
     return kept;
 }
 
-void appendGhostPaths(const LensSystem& lens, const std::vector<GhostPath>& paths, const GhostAnalysisOptions& options,
-                      GhostReport& report) {
-    const SpectralIndices indices = lens.indicesAt(options.wavelengthNm);
-    // The Fresnel/coating factors, tabulated once for all paths.
-    const InterfaceTables tables(lens, indices);
+namespace {
+
+// appendGhostPaths with the indices and the Fresnel/coating factors at the analysis's wavelength.
+void appendGhostPaths(const LensSystem& lens, const SpectralIndices& indices, const InterfaceTables& tables,
+                      const std::vector<GhostPath>& paths, const GhostAnalysisOptions& options, GhostReport& report) {
     std::vector<GhostEstimate> estimates(paths.size());
     // One path per task: their costs differ by orders of magnitude (a path dead at the second
     // surface against a live one meeting fifty), so let TBB balance them one by one.
@@ -212,6 +213,16 @@ void appendGhostPaths(const LensSystem& lens, const std::vector<GhostPath>& path
     }
 }
 
+}  // namespace
+
+void appendGhostPaths(const LensSystem& lens, const std::vector<GhostPath>& paths, const GhostAnalysisOptions& options,
+                      GhostReport& report) {
+    const SpectralIndices indices = lens.indicesAt(options.wavelengthNm);
+    // The Fresnel/coating factors, tabulated once for all paths.
+    const InterfaceTables tables(lens, indices);
+    appendGhostPaths(lens, indices, tables, paths, options, report);
+}
+
 GhostReport analyseGhosts(const LensSystem& lens, const glm::dvec3& lightDirection,
                           const GhostAnalysisOptions& options) {
     GhostReport report;
@@ -221,9 +232,13 @@ GhostReport analyseGhosts(const LensSystem& lens, const glm::dvec3& lightDirecti
     const SpectralIndices indices = lens.indicesAt(options.wavelengthNm);
     // The Fresnel/coating factors, tabulated once for all paths.
     const InterfaceTables tables(lens, indices);
-    report.direct = estimate(lens, indices, &tables, report.grid, report.enteringAreaMm2, GhostPath{}, options);
-
-    appendGhostPaths(lens, enumerateGhosts(lens, options.order, options.includeSensor), options, report);
+    // The direct image alongside the ghosts (it is one of the larger tasks).
+    tbb::parallel_invoke(
+        [&] { report.direct = estimate(lens, indices, &tables, report.grid, report.enteringAreaMm2, GhostPath{}, options); },
+        [&] {
+            appendGhostPaths(lens, indices, tables, enumerateGhosts(lens, options.order, options.includeSensor), options,
+                             report);
+        });
     return report;
 }
 

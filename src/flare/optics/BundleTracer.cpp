@@ -5,6 +5,7 @@
 #include <limits>
 
 #include <glm/geometric.hpp>
+#include <tbb/parallel_for.h>
 
 #include "flare/optics/Fresnel.h"
 
@@ -46,46 +47,49 @@ InterfaceTables::InterfaceTables(const LensSystem& lens, const SpectralIndices& 
                    return i.surface == k && i.direction == direction;
                });
     };
-    for (int k = 0; k < lens.surfaceCount(); ++k) {
-        if (lens.surface(k).isStop) continue;
-        for (int direction : {-1, 1}) {
-            if (!wanted(k, direction)) continue;
-            const double n1 = direction > 0 ? indices.n[k] : indices.n[k + 1];
-            const double n2 = direction > 0 ? indices.n[k + 1] : indices.n[k];
-            // Total internal reflection below cos = √(1 − (n2/n1)²): the response has a
-            // square-root edge there, steep over a few hundredths in cos; it is evaluated
-            // exactly from two intervals below to 0.05 above.
-            double exactFrom = 2.0, exactTo = -1.0;
-            if (n1 > n2) {
-                const double critical = std::sqrt(1.0 - (n2 / n1) * (n2 / n1));
-                exactFrom = critical - 2.0 * h;
-                exactTo = critical + 0.05;
-            }
-            // Each response gives both factors: one evaluation per point fills both tables.
-            Table& transmit = tables_[(static_cast<size_t>(k) * 2 + (direction > 0 ? 1 : 0)) * 2];
-            Table& reflect = tables_[(static_cast<size_t>(k) * 2 + (direction > 0 ? 1 : 0)) * 2 + 1];
-            for (Table* t : {&transmit, &reflect}) {
-                t->exactFrom = exactFrom;
-                t->exactTo = exactTo;
-                t->value.resize(intervals_ + 1);
-                t->slope.resize(intervals_ + 1);
-            }
-            auto f = [&](double c) { return interfaceResponse(lens, indices, k, direction, std::clamp(c, 0.0, 1.0)); };
-            // Slopes by central differences (one-sided at the ends): with a step of 1e-6 the
-            // rounding error (~1e-10) and the truncation error (~1e-12 times the third
-            // derivative) of a slope move the interpolant by about 1e-13.
-            constexpr double d = 1e-6;
-            for (int i = 0; i <= intervals_; ++i) {
-                const double c = i * h;
-                const double lo = std::max(0.0, c - d), hi = std::min(1.0, c + d);
-                const FresnelTerms at = f(c), below = f(lo), above = f(hi);
-                transmit.value[i] = at.transmittance();
-                reflect.value[i] = at.reflectance();
-                transmit.slope[i] = (above.transmittance() - below.transmittance()) / (hi - lo);
-                reflect.slope[i] = (above.reflectance() - below.reflectance()) / (hi - lo);
-            }
+    // The interfaces in parallel (each fills its own two tables): a lens's tables cost a few
+    // milliseconds, which the analysis and the preview would otherwise wait for.
+    std::vector<std::pair<int, int>> interfaces;
+    for (int k = 0; k < lens.surfaceCount(); ++k)
+        for (int direction : {-1, 1})
+            if (!lens.surface(k).isStop && wanted(k, direction)) interfaces.emplace_back(k, direction);
+    tbb::parallel_for(size_t{0}, interfaces.size(), [&](size_t n) {
+        const auto [k, direction] = interfaces[n];
+        const double n1 = direction > 0 ? indices.n[k] : indices.n[k + 1];
+        const double n2 = direction > 0 ? indices.n[k + 1] : indices.n[k];
+        // Total internal reflection below cos = √(1 − (n2/n1)²): the response has a
+        // square-root edge there, steep over a few hundredths in cos; it is evaluated
+        // exactly from two intervals below to 0.05 above.
+        double exactFrom = 2.0, exactTo = -1.0;
+        if (n1 > n2) {
+            const double critical = std::sqrt(1.0 - (n2 / n1) * (n2 / n1));
+            exactFrom = critical - 2.0 * h;
+            exactTo = critical + 0.05;
         }
-    }
+        // Each response gives both factors: one evaluation per point fills both tables.
+        Table& transmit = tables_[(static_cast<size_t>(k) * 2 + (direction > 0 ? 1 : 0)) * 2];
+        Table& reflect = tables_[(static_cast<size_t>(k) * 2 + (direction > 0 ? 1 : 0)) * 2 + 1];
+        for (Table* t : {&transmit, &reflect}) {
+            t->exactFrom = exactFrom;
+            t->exactTo = exactTo;
+            t->value.resize(intervals_ + 1);
+            t->slope.resize(intervals_ + 1);
+        }
+        auto f = [&](double c) { return interfaceResponse(lens, indices, k, direction, std::clamp(c, 0.0, 1.0)); };
+        // Slopes by central differences (one-sided at the ends): with a step of 1e-6 the
+        // rounding error (~1e-10) and the truncation error (~1e-12 times the third
+        // derivative) of a slope move the interpolant by about 1e-13.
+        constexpr double d = 1e-6;
+        for (int i = 0; i <= intervals_; ++i) {
+            const double c = i * h;
+            const double lo = std::max(0.0, c - d), hi = std::min(1.0, c + d);
+            const FresnelTerms at = f(c), below = f(lo), above = f(hi);
+            transmit.value[i] = at.transmittance();
+            reflect.value[i] = at.reflectance();
+            transmit.slope[i] = (above.transmittance() - below.transmittance()) / (hi - lo);
+            reflect.slope[i] = (above.reflectance() - below.reflectance()) / (hi - lo);
+        }
+    });
 }
 
 double InterfaceTables::lookup(const Table& t, int surface, int direction, bool reflect, double cosThetaI) const {
