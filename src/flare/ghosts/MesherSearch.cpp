@@ -97,8 +97,9 @@ bool Mesher::covered(int level, long i, long j) const {
     if (i < 0 || j < 0) return true;
     const long last = static_cast<long>(o_.baseCells) << level;
     if (i >= last || j >= last) return true;
-    if (holders_.contains(cellKey(level, i, j))) return true;
-    for (int l = level; l >= 0; --l)
+    // The cell itself first: around a live corner it is most often there already.
+    if (leaves_.contains(cellKey(level, i, j)) || holders_.contains(cellKey(level, i, j))) return true;
+    for (int l = level - 1; l >= 0; --l)
         if (leaves_.contains(cellKey(l, i >> (level - l), j >> (level - l)))) return true;
     return false;
 }
@@ -124,8 +125,10 @@ void Mesher::completeAroundLiveCorners(int passes) {
                 if (!alive(c.corner[k])) continue;
                 const long ci = c.i + kCorner[k][0], cj = c.j + kCorner[k][1];  // the corner
                 for (long dj = -1; dj <= 0; ++dj)
-                    for (long di = -1; di <= 0; ++di)
+                    for (long di = -1; di <= 0; ++di) {
+                        if (ci + di == c.i && cj + dj == c.j) continue;  // the cell itself
                         if (!covered(c.level, ci + di, cj + dj) && budgetLeft()) addCell(c.level, ci + di, cj + dj);
+                    }
             }
         if (active_.size() == before) break;
         std::vector<Cell> added(active_.begin() + static_cast<std::ptrdiff_t>(before), active_.end());
