@@ -11,6 +11,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/partitioner.h>
+#include <tbb/task_group.h>
 
 #include "flare/core/RoundingClones.h"
 #include "flare/ghosts/PupilMesh.h"
@@ -361,6 +362,11 @@ PreviewImage renderPreview(const LensSystem& lens, const PreviewLight& light, co
             const int steps = static_cast<int>(job.estimate->path.reflections.size() + 1) * lens.surfaceCount();
             job.cost = estimatedRays(job.estimate->lattice, 0) * steps;
         }
+    // The two images (zeroed pages, milliseconds of page faults each) are allocated alongside the
+    // jobs.
+    tbb::task_group allocation;
+    allocation.run([&] { image.direct = {"direct", std::vector<float>(size, 0.0f)}; });
+    allocation.run([&] { image.ghosts = {"ghost", std::vector<float>(size, 0.0f)}; });
     std::vector<size_t> order(jobs.size());
     for (size_t i = 0; i < order.size(); ++i) order[i] = i;
     std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return jobs[a].cost > jobs[b].cost; });
@@ -375,8 +381,7 @@ PreviewImage renderPreview(const LensSystem& lens, const PreviewLight& light, co
     // Rasterisation, in bands of rows: each pixel receives its additions in one fixed order
     // (ghost, wavelength, primitive) whatever the number of threads, so the image is the same.
     const int bands = (height + kBandRows - 1) / kBandRows;
-    image.direct = {"direct", std::vector<float>(size, 0.0f)};
-    image.ghosts = {"ghost", std::vector<float>(size, 0.0f)};
+    allocation.wait();
     auto startBand = [&](BandAccumulator& rows, int b) { rows.start(b * kBandRows, std::min(height, (b + 1) * kBandRows) - 1); };
     tbb::parallel_for(tbb::blocked_range<int>(0, bands, 1), [&](const tbb::blocked_range<int>& range) {
         BandAccumulator direct(width, kBandRows), ghosts(width, kBandRows);
