@@ -9,6 +9,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -116,9 +117,14 @@ private:
     // event over all of them, so that each event's batch is as large as possible.
     void bringTo(const std::vector<int>& candidates, int step);
 
-    // The margin of `event` around a cell, from the lattice points around it that reached the
-    // event (MarginModel).
-    MarginModel modelEvent(const Cell& c, int event) const;
+    // The sample ids of the 4 × 4 lattice points around a cell (its corners in the middle),
+    // row after row from (i − 1, j − 1); −1 where there is none.
+    using Block = std::array<int, 16>;
+    Block blockOf(const Cell& c) const;
+
+    // The margin of `event` around a cell, from the lattice points around it (its block) that
+    // reached the event (MarginModel).
+    MarginModel modelEvent(const Cell& c, const Block& block, int event) const;
 
     // Whether a cell whose four corner rays are all dead may hold surviving rays. Each event that
     // killed a corner was met by rays around the cell that passed the events before it, so its
@@ -133,7 +139,7 @@ private:
     // order h²/8ρ for an edge of radius ρ), which would be refined down to the finest level.
     // Where too few rays around the cell reached an event to judge it (the region there is thin),
     // the cell is split a few levels without judgement.
-    bool possiblyLive(Cell& c, int step) const;
+    bool possiblyLive(Cell& c, const Block& block, int step) const;
 
     // The four children of a cell, which inherit its judgement state.
     std::vector<Cell> split(const Cell& c);

@@ -218,22 +218,30 @@ void Mesher::bringTo(const std::vector<int>& candidates, int step) {
     }
 }
 
-MarginModel Mesher::modelEvent(const Cell& c, int event) const {
-    double block[4][4];
-    int reached = 0;
+Mesher::Block Mesher::blockOf(const Cell& c) const {
+    Block block;
     for (long dj = 0; dj < 4; ++dj)
         for (long di = 0; di < 4; ++di) {
             const Sample* s = find(c.i + di - 1, c.j + dj - 1, c.level);
-            const bool there = s && s->reached > event;
-            block[dj][di] = there ? margins_[static_cast<size_t>(s - samples_.data()) * steps_ + event] : kNaN;
-            reached += there;
+            block[dj * 4 + di] = s ? static_cast<int>(s - samples_.data()) : -1;
         }
+    return block;
+}
+
+MarginModel Mesher::modelEvent(const Cell& c, const Block& ids, int event) const {
+    double block[4][4];
+    int reached = 0;
+    for (int k = 0; k < 16; ++k) {
+        const bool there = ids[k] >= 0 && samples_[ids[k]].reached > event;
+        block[k / 4][k % 4] = there ? margins_[static_cast<size_t>(ids[k]) * steps_ + event] : kNaN;
+        reached += there;
+    }
     MarginModel model = fitMarginModel(block, cellMm(c.level));
     model.reached = reached;
     return model;
 }
 
-bool Mesher::possiblyLive(Cell& c, int step) const {
+bool Mesher::possiblyLive(Cell& c, const Block& block, int step) const {
     int events[4], count = 0, latest = -1;
     for (int k = 0; k < 4; ++k) {
         const int e = samples_[c.corner[k]].death;
@@ -254,7 +262,7 @@ bool Mesher::possiblyLive(Cell& c, int step) const {
     std::fill(c.allowances, c.allowances + 4, Cell::Allowance{});
     for (int n = 0; n < count && polygon.size > 0; ++n) {
         const int e = events[n];
-        const MarginModel model = modelEvent(c, e);
+        const MarginModel model = modelEvent(c, block, e);
         if (e == latest && model.reached < 3) {
             c.slopeStep = step;
             c.blind = true;
@@ -307,22 +315,26 @@ void Mesher::processStep(int step) {
     active_.clear();
     while (!work.empty()) {
         // The lattice points around the cells to judge must have met the event too (points of
-        // cells dropped earlier have not been followed that far).
+        // cells dropped earlier have not been followed that far). Their blocks are found once:
+        // the points the splits below add have met no event yet, so they would not count anyway.
         std::vector<int> around;
-        for (const Cell& c : work) {
+        std::vector<Block> blocks(work.size());
+        for (size_t n = 0; n < work.size(); ++n) {
+            const Cell& c = work[n];
             if (alive(c.corner[0]) || alive(c.corner[1]) || alive(c.corner[2]) || alive(c.corner[3])) continue;
-            for (long dj = -1; dj <= 2; ++dj)
-                for (long di = -1; di <= 2; ++di)
-                    if (const Sample* p = find(c.i + di, c.j + dj, c.level)) around.push_back(static_cast<int>(p - samples_.data()));
+            blocks[n] = blockOf(c);
+            for (int id : blocks[n])
+                if (id >= 0) around.push_back(id);
         }
         bringTo(around, step);
         std::vector<Cell> next;
-        for (Cell& c : work) {
+        for (size_t n = 0; n < work.size(); ++n) {
+            Cell& c = work[n];
             if (alive(c.corner[0]) || alive(c.corner[1]) || alive(c.corner[2]) || alive(c.corner[3])) {
                 active_.push_back(c);
                 continue;
             }
-            if (c.level < deepest && possiblyLive(c, step) && budgetLeft()) {
+            if (c.level < deepest && possiblyLive(c, blocks[n], step) && budgetLeft()) {
                 std::vector<Cell> children = split(c);
                 next.insert(next.end(), children.begin(), children.end());
             }
