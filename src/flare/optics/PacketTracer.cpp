@@ -583,8 +583,8 @@ void PacketTracer::advance(int first, int last, std::span<BundleRay> rays, std::
         for (int step = first; step <= last; ++step) {
             const detail::PacketStep& s = steps_[step];
             int n = 0, going = 0;
-            // The sensor, aspheric iris planes and a polygonal iris's margins (its sector search)
-            // take BundleTracer's step.
+            // The sensor, aspheric iris planes and the margins of an iris with more blades than
+            // the lanes hold take BundleTracer's step.
             if (s.kind == Kind::Sensor || s.kind == Kind::WrongExit || s.kind == Kind::Scalar ||
                 (s.kind == Kind::Stop && s.blades > detail::PacketStep::kLaneBlades && withMargins)) {
                 for (int i = 0; i < active; ++i)
