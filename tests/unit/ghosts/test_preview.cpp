@@ -230,6 +230,43 @@ TEST(Preview, SameImageWhateverTheNumberOfThreads) {
     EXPECT_EQ(one.tracedRays, many.tracedRays);
 }
 
+// The raster adds each span as two differences along its row and sums them per band: every layer
+// must still be the sum of its ghosts (the per-ghost layers add up to the ghost layer) and exactly
+// zero where no ghost lies, with no rounding residue of the running sums, which would show as
+// negative values beside a ghost's edge.
+TEST(Preview, LayersAreSumsOfTheirGhostsAndNeverNegative) {
+    const LensSystem lens = test::loadLens("lenses/double-gauss-50mm.lens");
+    const glm::dvec3 direction = directionFromFieldDeg(8.0, 3.0);
+    PreviewOptions options;
+    options.widthPx = 384;
+    options.heightPx = 256;
+    options.perGhostLayers = true;
+    PreviewLight light = monochromatic(direction);
+    light.spectrum = spectralQuadrature(Spectrum::blackbody(5778.0), 3);
+    const GhostReport report = analyseGhosts(lens, direction, GhostAnalysisOptions{});
+    const PreviewImage image = renderPreview(lens, light, report, options);
+    ASSERT_GE(image.perGhost.size(), 20u);
+    long zeros = 0;
+    for (const XyzLayer* layer : {&image.ghosts, &image.direct})
+        for (float v : layer->xyz) {
+            ASSERT_TRUE(std::isfinite(v) && v >= 0.0f) << layer->name;
+            zeros += v == 0.0f;
+        }
+    EXPECT_GT(zeros, static_cast<long>(image.direct.xyz.size()) / 2);  // the direct image is small
+    float largest = 0.0f;
+    for (float v : image.ghosts.xyz) largest = std::max(largest, v);
+    std::vector<double> sum(image.ghosts.xyz.size(), 0.0);
+    for (const XyzLayer& layer : image.perGhost)
+        for (size_t i = 0; i < sum.size(); ++i) {
+            ASSERT_TRUE(std::isfinite(layer.xyz[i]) && layer.xyz[i] >= 0.0f) << layer.name;
+            sum[i] += layer.xyz[i];
+        }
+    // Each layer is rounded to float once: the sum of the layers and the ghost layer differ by
+    // about a float rounding per layer, of the largest value at most.
+    const double tolerance = 1e-6 * static_cast<double>(image.perGhost.size()) * largest;
+    for (size_t i = 0; i < sum.size(); ++i) ASSERT_NEAR(sum[i], image.ghosts.xyz[i], tolerance) << "value " << i;
+}
+
 TEST(Preview, DeterministicAcrossRuns) {
     const LensSystem lens = test::loadLens("lenses/double-gauss-50mm.lens");
     const glm::dvec3 direction = directionFromFieldDeg(8.0, 3.0);
