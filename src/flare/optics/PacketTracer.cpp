@@ -528,6 +528,33 @@ int scalarStep(const BundleTracer& path, int step, detail::PacketLanes& b, const
     return going;
 }
 
+// Once a quarter of a batch's `active` lanes have ended, moves the `going` ones to the front (their
+// inputs in `index` with them) and pads with ended lanes to whole vectors, after `leave(i)` for
+// each lane that ended; returns the lanes now active (unchanged if it did not compact).
+template <class Leave>
+int compactLanes(detail::PacketLanes& b, int* index, int active, int going, Leave&& leave) {
+    constexpr int kLanes = detail::kPacketMaxLanes;
+    const int needed = (going + kLanes - 1) / kLanes * kLanes;
+    if (4 * needed > 3 * active) return active;
+    int m = 0;
+    for (int i = 0; i < active; ++i) {
+        if (b.fate[i] != 0.0) {
+            leave(i);
+            continue;
+        }
+        b.ox[m] = b.ox[i], b.oy[m] = b.oy[i], b.oz[m] = b.oz[i];
+        b.dx[m] = b.dx[i], b.dy[m] = b.dy[i], b.dz[m] = b.dz[i];
+        b.throughput[m] = b.throughput[i];
+        b.fate[m] = 0.0;
+        index[m++] = index[i];
+    }
+    for (; m < needed; ++m) {
+        b.fate[m] = 1.0;
+        index[m] = -1;
+    }
+    return needed;
+}
+
 }  // namespace
 
 void PacketTracer::scalarWeights(const detail::PacketStep& s, detail::PacketLanes& b, int active) const {
@@ -609,25 +636,7 @@ void PacketTracer::advance(int first, int last, std::span<BundleRay> rays, std::
                         margins[index[i]][step] = b.margin[i];
             }
             // Once a quarter of the lanes have ended, the going ones move together (as trace()).
-            const int needed = (going + kLanes - 1) / kLanes * kLanes;
-            if (4 * needed > 3 * active) continue;
-            int m = 0;
-            for (int i = 0; i < active; ++i) {
-                if (b.fate[i] != 0.0) {
-                    leave(i);
-                    continue;
-                }
-                b.ox[m] = b.ox[i], b.oy[m] = b.oy[i], b.oz[m] = b.oz[i];
-                b.dx[m] = b.dx[i], b.dy[m] = b.dy[i], b.dz[m] = b.dz[i];
-                b.throughput[m] = b.throughput[i];
-                b.fate[m] = 0.0;
-                index[m++] = index[i];
-            }
-            for (; m < needed; ++m) {
-                b.fate[m] = 1.0;
-                index[m] = -1;
-            }
-            active = needed;
+            active = compactLanes(b, index, active, going, leave);
         }
         for (int i = 0; i < active; ++i) leave(i);
     }
@@ -689,25 +698,7 @@ void PacketTracer::trace(const PupilGrid& grid, std::span<const glm::dvec2> pupi
             // A ghost path loses most rays within a few steps: once a quarter of the lanes are
             // dead, the ended rays land and the going ones move together, so that later steps
             // run fewer vectors (moving a ray costs far less than a step).
-            const int needed = (going + kLanes - 1) / kLanes * kLanes;
-            if (4 * needed > 3 * active) continue;
-            int m = 0;
-            for (int i = 0; i < active; ++i) {
-                if (b.fate[i] != 0.0) {
-                    land(i);
-                    continue;
-                }
-                b.ox[m] = b.ox[i], b.oy[m] = b.oy[i], b.oz[m] = b.oz[i];
-                b.dx[m] = b.dx[i], b.dy[m] = b.dy[i], b.dz[m] = b.dz[i];
-                b.throughput[m] = b.throughput[i];
-                b.fate[m] = 0.0;
-                index[m++] = index[i];
-            }
-            for (; m < needed; ++m) {
-                b.fate[m] = 1.0;
-                index[m] = -1;
-            }
-            active = needed;
+            active = compactLanes(b, index, active, going, land);
         }
         for (int i = 0; i < active; ++i) land(i);
     }

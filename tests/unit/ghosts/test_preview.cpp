@@ -208,19 +208,29 @@ TEST(Preview, OnAxisGhostsAreRotationallySymmetricWithACircularIris) {
     EXPECT_GE(tested, 8);  // on axis, 9 of the kept ghosts lie wholly on the 36 × 24 mm sensor
 }
 
-TEST(Preview, SameImageWhateverTheNumberOfThreads) {
-    const LensSystem lens = test::loadLens("lenses/double-gauss-50mm.lens");
-    const glm::dvec3 direction = directionFromFieldDeg(8.0, 3.0);
+// A small preview of the double Gauss at (8°, 3°): 384 × 256 pixels with per-ghost layers, the
+// sun's spectrum at three wavelengths.
+struct SmallPreview {
+    LensSystem lens = test::loadLens("lenses/double-gauss-50mm.lens");
+    glm::dvec3 direction = directionFromFieldDeg(8.0, 3.0);
+    PreviewLight light;
     PreviewOptions options;
-    options.widthPx = 384;
-    options.heightPx = 256;
-    options.perGhostLayers = true;
-    PreviewLight light = monochromatic(direction);
-    light.spectrum = spectralQuadrature(Spectrum::blackbody(5778.0), 3);
+    SmallPreview() : light(monochromatic(direction)) {
+        light.spectrum = spectralQuadrature(Spectrum::blackbody(5778.0), 3);
+        options.widthPx = 384;
+        options.heightPx = 256;
+        options.perGhostLayers = true;
+    }
+    PreviewImage render() const {
+        return renderPreview(lens, light, analyseGhosts(lens, direction, GhostAnalysisOptions{}), options);
+    }
+};
+
+TEST(Preview, SameImageWhateverTheNumberOfThreads) {
+    const SmallPreview preview;
     auto render = [&](int threads) {
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
-        const GhostReport report = analyseGhosts(lens, direction, GhostAnalysisOptions{});
-        return renderPreview(lens, light, report, options);
+        return preview.render();
     };
     const PreviewImage one = render(1), many = render(4);
     EXPECT_EQ(one.ghosts.xyz, many.ghosts.xyz);
@@ -235,16 +245,7 @@ TEST(Preview, SameImageWhateverTheNumberOfThreads) {
 // zero where no ghost lies, with no rounding residue of the running sums, which would show as
 // negative values beside a ghost's edge.
 TEST(Preview, LayersAreSumsOfTheirGhostsAndNeverNegative) {
-    const LensSystem lens = test::loadLens("lenses/double-gauss-50mm.lens");
-    const glm::dvec3 direction = directionFromFieldDeg(8.0, 3.0);
-    PreviewOptions options;
-    options.widthPx = 384;
-    options.heightPx = 256;
-    options.perGhostLayers = true;
-    PreviewLight light = monochromatic(direction);
-    light.spectrum = spectralQuadrature(Spectrum::blackbody(5778.0), 3);
-    const GhostReport report = analyseGhosts(lens, direction, GhostAnalysisOptions{});
-    const PreviewImage image = renderPreview(lens, light, report, options);
+    const PreviewImage image = SmallPreview().render();
     ASSERT_GE(image.perGhost.size(), 20u);
     long zeros = 0;
     for (const XyzLayer* layer : {&image.ghosts, &image.direct})
