@@ -88,12 +88,13 @@ public:
         TraceStatus status = TraceStatus::Ok;
     };
 
-    // As BundleTracer::advance for the steps first..last in turn, for rays all going at `first`,
+    // BundleTracer::advance for the steps first..last in turn, for rays all going at `first`,
     // which stay in the vector lanes from step to step: a ray that goes through them all leaves
-    // as advance() step by step would leave it, to the last bit; one that ends keeps its state
-    // from before the call, and ends[i] says where and why. With `margins` (one row per ray,
-    // indexed by step, or empty for none), margins[i][k] receives the StepOutcome::margin of step
-    // k for every step the ray entered, the bits advance(k, …, true) gives.
+    // as BundleTracer::advance, step after step, would leave it, to the last bit; one that ends
+    // keeps its state from before the call, and ends[i] says where and why. With `margins` (one
+    // row per ray, indexed by step, or empty for none), margins[i][k] receives the
+    // StepOutcome::margin of step k for every step the ray entered, the bits
+    // BundleTracer::advance(k, …, true) gives.
     void advance(int first, int last, std::span<BundleRay> rays, std::span<End> ends,
                  std::span<double* const> margins) const;
     int stepCount() const { return path_.stepCount(); }
