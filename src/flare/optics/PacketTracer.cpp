@@ -573,14 +573,43 @@ void PacketTracer::scalarWeights(const detail::PacketStep& s, detail::PacketLane
     }
 }
 
+int PacketTracer::runStep(int step, detail::PacketLanes& b, int active, bool margins) const {
+    using Kind = detail::PacketStep::Kind;
+    const detail::PacketStep& s = steps_[step];
+    int which[detail::kPacketBatch];
+    int n = 0;
+    // BundleTracer's step for every going ray: aspheric iris planes, and, when margins are asked,
+    // the sensor (its rectangle's margin), a wrong exit and an iris with more blades than the
+    // lanes hold.
+    if (s.kind == Kind::Scalar ||
+        (margins && (s.kind == Kind::Sensor || s.kind == Kind::WrongExit ||
+                     (s.kind == Kind::Stop && s.blades > detail::PacketStep::kLaneBlades)))) {
+        for (int i = 0; i < active; ++i)
+            if (b.fate[i] == 0.0) which[n++] = i;
+        return scalarStep(path_, step, b, which, n, margins);
+    }
+    if (s.kind == Kind::WrongExit) {  // every going ray ends here
+        for (int i = 0; i < active; ++i)
+            if (b.fate[i] == 0.0) b.fate[i] = detail::fateCode(step, TraceStatus::WrongExit);
+        return 0;
+    }
+    const detail::PacketStepResult result = HWY_DYNAMIC_DISPATCH(AdvancePacket)(
+        s, step, b, static_cast<size_t>(active), margins ? detail::PacketMargins::All : detail::PacketMargins::None);
+    int going = result.going;
+    if (result.left & detail::kScalarWeights) scalarWeights(s, b, active);
+    if (result.left & detail::kDeferredRays) {
+        for (int i = 0; i < active; ++i)
+            if (b.deferred[i] != 0.0) which[n++] = i;
+        going += scalarStep(path_, step, b, which, n, margins);
+    }
+    return going;
+}
+
 void PacketTracer::advance(int first, int last, std::span<BundleRay> rays, std::span<End> ends,
                            std::span<double* const> margins) const {
-    using Kind = detail::PacketStep::Kind;
     constexpr int kLanes = detail::kPacketMaxLanes;
     const bool withMargins = !margins.empty();
-    const detail::PacketMargins wanted = withMargins ? detail::PacketMargins::All : detail::PacketMargins::None;
     detail::PacketLanes b;
-    int which[detail::kPacketBatch];
     int index[detail::kPacketBatch];  // the ray in each lane, −1 for padding
     for (size_t begin = 0; begin < rays.size(); begin += detail::kPacketBatch) {
         const int count = static_cast<int>(std::min<size_t>(detail::kPacketBatch, rays.size() - begin));
@@ -608,26 +637,7 @@ void PacketTracer::advance(int first, int last, std::span<BundleRay> rays, std::
             ends[index[i]] = End{code / 8, static_cast<TraceStatus>(code % 8)};
         };
         for (int step = first; step <= last; ++step) {
-            const detail::PacketStep& s = steps_[step];
-            int n = 0, going = 0;
-            // The sensor, aspheric iris planes and the margins of an iris with more blades than
-            // the lanes hold take BundleTracer's step.
-            if (s.kind == Kind::Sensor || s.kind == Kind::WrongExit || s.kind == Kind::Scalar ||
-                (s.kind == Kind::Stop && s.blades > detail::PacketStep::kLaneBlades && withMargins)) {
-                for (int i = 0; i < active; ++i)
-                    if (b.fate[i] == 0.0) which[n++] = i;
-                going = scalarStep(path_, step, b, which, n, withMargins);
-            } else {
-                const detail::PacketStepResult result =
-                    HWY_DYNAMIC_DISPATCH(AdvancePacket)(s, step, b, static_cast<size_t>(active), wanted);
-                going = result.going;
-                if (result.left & detail::kScalarWeights) scalarWeights(s, b, active);
-                if (result.left & detail::kDeferredRays) {
-                    for (int i = 0; i < active; ++i)
-                        if (b.deferred[i] != 0.0) which[n++] = i;
-                    going += scalarStep(path_, step, b, which, n, withMargins);
-                }
-            }
+            const int going = runStep(step, b, active, withMargins);
             if (withMargins) {
                 // The rays that entered this step: going on, or ended here.
                 const double endedHere = detail::fateCode(step, TraceStatus::Ok);
@@ -645,7 +655,6 @@ void PacketTracer::advance(int first, int last, std::span<BundleRay> rays, std::
 void PacketTracer::trace(const PupilGrid& grid, std::span<const glm::dvec2> pupilMm, std::span<BundleLanding> out) const {
     constexpr int kLanes = detail::kPacketMaxLanes;
     detail::PacketLanes b;
-    int which[detail::kPacketBatch];
     int index[detail::kPacketBatch];  // the input of each lane, −1 for padding
     const LensSystem& lens = *path_.lens_;
     for (size_t begin = 0; begin < pupilMm.size(); begin += detail::kPacketBatch) {
@@ -675,26 +684,7 @@ void PacketTracer::trace(const PupilGrid& grid, std::span<const glm::dvec2> pupi
             o.surface = path_.stepSurface(code / 8);
         };
         for (int step = 0; step < static_cast<int>(steps_.size()); ++step) {
-            const detail::PacketStep& s = steps_[step];
-            int n = 0, going = 0;
-            if (s.kind == detail::PacketStep::Kind::WrongExit) {
-                for (int i = 0; i < active; ++i)
-                    if (b.fate[i] == 0.0) b.fate[i] = detail::fateCode(step, TraceStatus::WrongExit);
-            } else if (s.kind == detail::PacketStep::Kind::Scalar) {
-                for (int i = 0; i < active; ++i)
-                    if (b.fate[i] == 0.0) which[n++] = i;
-                going = scalarStep(path_, step, b, which, n);
-            } else {
-                const detail::PacketStepResult result = HWY_DYNAMIC_DISPATCH(AdvancePacket)(
-                    s, step, b, static_cast<size_t>(active), detail::PacketMargins::None);
-                going = result.going;
-                if (result.left & detail::kScalarWeights) scalarWeights(s, b, active);
-                if (result.left & detail::kDeferredRays) {
-                    for (int i = 0; i < active; ++i)
-                        if (b.deferred[i] != 0.0) which[n++] = i;
-                    going += scalarStep(path_, step, b, which, n);
-                }
-            }
+            const int going = runStep(step, b, active, false);
             // A ghost path loses most rays within a few steps: once a quarter of the lanes are
             // dead, the ended rays land and the going ones move together, so that later steps
             // run fewer vectors (moving a ray costs far less than a step).

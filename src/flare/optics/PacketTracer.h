@@ -105,6 +105,9 @@ public:
 
 private:
     void scalarWeights(const detail::PacketStep& s, detail::PacketLanes& b, int active) const;
+    // Step `step` for the going lanes of a batch (its first `active` lanes), with their margins
+    // when asked; returns how many are still going.
+    int runStep(int step, detail::PacketLanes& b, int active, bool margins) const;
 
     BundleTracer path_;
     std::vector<detail::PacketStep> steps_;
