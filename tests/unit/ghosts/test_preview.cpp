@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
+#include <limits>
 #include <random>
 #include <string>
 
@@ -262,9 +263,11 @@ TEST(Preview, LayersAreSumsOfTheirGhostsAndNeverNegative) {
             ASSERT_TRUE(std::isfinite(layer.xyz[i]) && layer.xyz[i] >= 0.0f) << layer.name;
             sum[i] += layer.xyz[i];
         }
-    // Each layer is rounded to float once: the sum of the layers and the ghost layer differ by
-    // about a float rounding per layer, of the largest value at most.
-    const double tolerance = 1e-6 * static_cast<double>(image.perGhost.size()) * largest;
+    // Each layer, and the ghost layer, is its sum in double rounded to float once, and every value
+    // is at most the largest (all are non-negative): the two differ by at most half a float ulp of
+    // the largest per layer, plus the ghost layer's own.
+    const double halfUlp = 0.5 * std::numeric_limits<float>::epsilon();
+    const double tolerance = halfUlp * static_cast<double>(image.perGhost.size() + 1) * largest;
     for (size_t i = 0; i < sum.size(); ++i) ASSERT_NEAR(sum[i], image.ghosts.xyz[i], tolerance) << "value " << i;
 }
 
