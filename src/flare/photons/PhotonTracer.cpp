@@ -159,13 +159,21 @@ void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& 
 
 void PhotonTracer::trace(const SpectralIndices& indices, const Ray& start, Rng& rng, PhotonHistory& h,
                          Scratch& scratch) const {
+    traceFrom(indices, WalkStart{start}, rng, h, scratch);
+}
+
+void PhotonTracer::traceFrom(const SpectralIndices& indices, const WalkStart& start, Rng& rng, PhotonHistory& h,
+                             Scratch& scratch) const {
     const LensSystem& lens = *lens_;
     const int n = lens.surfaceCount();
     h = PhotonHistory{};
-    Ray ray = start;
-    int cell = 0;
-    int onSurface = -1;  // the surface the photon stands on, if any
-    PathKey key = 0;
+    h.reflections = start.reflections;
+    h.events = start.events;
+    h.entered = start.entered;
+    Ray ray = start.ray;
+    int cell = start.cell;
+    int onSurface = start.onSurface;  // the surface the photon stands on, if any
+    PathKey key = start.key;
     bool scattered = false;
     ScatterSource firstScatter = ScatterSource::None;
     auto markScattered = [&](ScatterSource source) {

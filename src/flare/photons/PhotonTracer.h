@@ -21,6 +21,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -191,6 +192,24 @@ public:
     void trace(const SpectralIndices& indices, const Ray& ray, Rng& rng, PhotonHistory& history, Scratch& scratch) const;
     void trace(const SpectralIndices& indices, const Ray& ray, Rng& rng, PhotonHistory& history) const;
 
+    // A photon for tracePacket: its ray in object space, its indices (which must outlive the
+    // call) and a generator of its own.
+    struct PacketPhoton {
+        Ray ray;
+        const SpectralIndices* indices = nullptr;
+        Rng rng;
+    };
+    // Traces photons[i] into histories[i] exactly as trace(*indices, ray, rng, history, scratch)
+    // would, to the last bit, each drawing from its own generator (which is left where trace would
+    // leave it). The stretches of the walks between interfaces are traced together in SIMD lanes
+    // (PhotonPacket.cpp): the search for the next boundary on every instruction set, each photon's
+    // reflection or refraction at a clean optical surface in turn; at any other event (a wall, the
+    // iris blades, a retaining ring, the sensor, dust, grease, a bulk medium, an asphere, a seam
+    // or a bounce limit) the photon leaves the lanes and trace()'s own loop goes on from there.
+    // Returns how many events the lanes traced (the rest of the histories' events were trace()'s).
+    std::int64_t tracePacket(std::span<PacketPhoton> photons, std::span<PhotonHistory> histories,
+                             Scratch& scratch) const;
+
     // Probability that light following a sequential path meets no dust, grease or bulk event: the
     // guided strategy's weight for owning only unscattered paths. `points` and `surfaces` are
     // TraceOptions' record of the path (surface index per point, −1 the start, surfaceCount the
@@ -214,6 +233,16 @@ public:
     const LensSystem& lens() const { return *lens_; }
 
 private:
+    // Where a walk stands between two events: what trace()'s loop needs to go on (the packets
+    // hand a photon over with it). A new photon stands in object space, on no surface.
+    struct WalkStart {
+        Ray ray;
+        int cell = 0, onSurface = -1, reflections = 0, events = 0;
+        PathKey key = 0;
+        bool entered = false;
+    };
+    void traceFrom(const SpectralIndices& indices, const WalkStart& start, Rng& rng, PhotonHistory& history,
+                   Scratch& scratch) const;
     struct Cell {
         double wallRadiusMm = 0.0;
         bool glass = false;

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <memory>
 #include <numbers>
+#include <span>
 #include <unordered_map>
 
 #include <glm/geometric.hpp>
@@ -529,7 +530,6 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
     Rng rng(options_.seed, static_cast<std::uint64_t>(batchIndex));
     const LensSystem& lens = *lens_;
     const double halfW = 0.5 * lens.sensor().widthMm, halfH = 0.5 * lens.sensor().heightMm;
-    PhotonHistory history;
     std::vector<int> noReflections;
     SequentialPath sequence;
     const std::unique_ptr<PhotonTracer::Scratch> scratch = tracer_.makeScratch();
@@ -552,6 +552,69 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
         out.layerSums[layer] += xyzW.y;
         stats.largestPhotonY[layer] = std::max(stats.largestPhotonY[layer], xyzW.y);
         ++stats.sensorHits;
+    };
+
+    // Unguided photons waiting to be traced together, and what scoring them needs.
+    struct Pending {
+        double a = 0.0, b = 0.0;  // the emission point (mm in the emission disk)
+        double weight = 0.0;      // W
+        glm::dvec3 xyzWeight{0.0};
+        int light = 0;
+    };
+    constexpr size_t kPacketPhotons = 256;
+    const std::uint64_t walkSeed = mixBits(options_.seed ^ 0x3a1f5c0de0f7a1c5ull);
+    const std::uint64_t walkStream = static_cast<std::uint64_t>(batchIndex) * static_cast<std::uint64_t>(options_.batchPhotons);
+    std::vector<Pending> pending;
+    std::vector<SpectralIndices> pendingIndices(kPacketPhotons);
+    std::vector<PhotonTracer::PacketPhoton> packet;
+    std::vector<PhotonHistory> histories(kPacketPhotons);
+    pending.reserve(kPacketPhotons);
+    packet.reserve(kPacketPhotons);
+    auto tracePending = [&] {
+        if (pending.empty()) return;
+        tracer_.tracePacket(packet, std::span(histories).first(packet.size()), *scratch);
+        for (size_t i = 0; i < pending.size(); ++i) {
+            const Pending& photon = pending[i];
+            const PhotonHistory& history = histories[i];
+            const LightState& light = lightStates_[photon.light];
+            const double weight = photon.weight;
+            stats.nullCollisions += history.nullCollisions;
+            stats.realCollisions += history.realCollisions;
+            FateTally& fate = stats.fates[static_cast<int>(history.fate)];
+            ++fate.photons;
+            fate.powerW += weight * history.weight;
+            // (Stray light sampling deposits shares on the way; an analog photon's are all zero.)
+            for (int f = 0; f < static_cast<int>(PhotonFate::Count); ++f) stats.fates[f].powerW += weight * history.deposited[f];
+            if (history.entered) stats.unguidedEnteredPowerW += weight;
+            if (weight == 0.0) continue;
+            for (int k = 0; k < history.arrivalCount; ++k) {
+                const SensorArrival& arrival = history.arrivals[k];
+                int layer = kLayerScatter, tally = light.scatterTally(), ghostLayer = -1;
+                if (!arrival.scattered) {
+                    const auto it = light.slotOfKey.find(arrival.key);
+                    if (it == light.slotOfKey.end()) {
+                        layer = kLayerHigher;
+                        tally = light.higherTally();
+                    } else {
+                        const int slot = it->second;
+                        // Owned by a guided strategy: already counted there.
+                        if (light.masks[slot].contains(photon.a, photon.b)) continue;
+                        layer = light.layer[slot];
+                        tally = light.tallyOffset + slot;
+                        ghostLayer = light.ghostLayer[slot];
+                    }
+                }
+                const glm::dvec3 xyzW = photon.xyzWeight * (weight * arrival.weight);
+                if (arrival.scattered) {
+                    const int source = static_cast<int>(arrival.firstScatter) - 1;
+                    out.sourceSums[source] += xyzW.y;
+                    ghostLayer = scatterSourceLayer_[source];
+                }
+                score(layer, ghostLayer, tally, arrival.positionMm, xyzW);
+            }
+        }
+        pending.clear();
+        packet.clear();
     };
 
     for (int photon = 0; photon < options_.batchPhotons; ++photon) {
@@ -593,7 +656,9 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
         }
 
         // Unguided: uniform over the emission disk, non-sequential tracing. (The disk, not its
-        // square: the corners hold no ray that can enter, and were a fifth of the photons.)
+        // square: the corners hold no ray that can enter, and were a fifth of the photons.) The
+        // photons are traced in packets (PhotonTracer::tracePacket), each walk drawing from a
+        // generator of its own: stream (batch, photon) of a seed apart from the batches'.
         ++stats.unguidedPhotons;
         const double radius = light.sampler.emissionHalfSizeMm();
         const double r = radius * std::sqrt(u1), phi = 2.0 * std::numbers::pi * u2;
@@ -601,42 +666,13 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
         const EmittedRay emitted = light.sampler.rayThrough(a, b, uLight1, uLight2);
         const double weight = emitted.powerPerMm2 * std::numbers::pi * radius * radius / component.probability;
         stats.unguidedEmittedPowerW += weight;
-        tracer_.trace(indices, emitted.ray, rng, history, *scratch);
-        stats.nullCollisions += history.nullCollisions;
-        stats.realCollisions += history.realCollisions;
-        FateTally& fate = stats.fates[static_cast<int>(history.fate)];
-        ++fate.photons;
-        fate.powerW += weight * history.weight;
-        // (Stray light sampling deposits shares on the way; an analog photon's are all zero.)
-        for (int f = 0; f < static_cast<int>(PhotonFate::Count); ++f) stats.fates[f].powerW += weight * history.deposited[f];
-        if (history.entered) stats.unguidedEnteredPowerW += weight;
-        if (weight == 0.0) continue;
-        for (int i = 0; i < history.arrivalCount; ++i) {
-            const SensorArrival& arrival = history.arrivals[i];
-            int layer = kLayerScatter, tally = light.scatterTally(), ghostLayer = -1;
-            if (!arrival.scattered) {
-                const auto it = light.slotOfKey.find(arrival.key);
-                if (it == light.slotOfKey.end()) {
-                    layer = kLayerHigher;
-                    tally = light.higherTally();
-                } else {
-                    const int slot = it->second;
-                    // Owned by a guided strategy: already counted there.
-                    if (light.masks[slot].contains(a, b)) continue;
-                    layer = light.layer[slot];
-                    tally = light.tallyOffset + slot;
-                    ghostLayer = light.ghostLayer[slot];
-                }
-            }
-            const glm::dvec3 xyzW = xyzWeight * (weight * arrival.weight);
-            if (arrival.scattered) {
-                const int source = static_cast<int>(arrival.firstScatter) - 1;
-                out.sourceSums[source] += xyzW.y;
-                ghostLayer = scatterSourceLayer_[source];
-            }
-            score(layer, ghostLayer, tally, arrival.positionMm, xyzW);
-        }
+        const size_t i = pending.size();
+        pending.push_back({a, b, weight, xyzWeight, component.light});
+        pendingIndices[i] = indices;
+        packet.push_back({emitted.ray, &pendingIndices[i], Rng(walkSeed, walkStream + static_cast<std::uint64_t>(photon))});
+        if (pending.size() == kPacketPhotons) tracePending();
     }
+    tracePending();
 }
 
 void Renderer::traceBeam(BeamJob& job) const {

@@ -1,0 +1,342 @@
+// PhotonTracer::tracePacket: photon walks whose stretches between interfaces run in SIMD lanes.
+//
+// A walk in a clean lens is mostly one kind of event: the photon crosses its cell to the surface
+// ahead or behind and reflects or refracts there. Finding that surface is the costly part of
+// trace()'s loop (two quadratics, the wall's cylinder, two annuli, all chains of divisions and
+// square roots), and it is the same computation for every photon, with the cell's constants. So
+// up to kPhotonBatch walks are kept in flight: one vector pass finds the next boundary of every
+// walk (the cell's constants gathered per lane), then each photon meets its surface in turn with
+// trace()'s own scalar code (the Fresnel/coating choice draws from the photon's generator).
+//
+// Every operation of the search is trace()'s, in its order (no fused multiply-adds: this file is
+// compiled with -ffp-contract=off), so the lanes find the same boundary at the same distance to
+// the last bit. Where the search would need more than the lanes do (a hit within the seam
+// tolerance of where the photon stands, an asphere's Newton iteration, an origin far from a
+// conic) and at every event other than a clean interface, the photon leaves the lanes: trace()'s
+// loop (traceFrom) goes on from the state before that event, so the photon's history is the one
+// trace() gives, and the test holds them to it bit for bit on every instruction set.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <span>
+
+#include <glm/geometric.hpp>
+
+#include "flare/optics/Fresnel.h"
+#include "flare/optics/SequentialTracer.h"
+#include "flare/photons/PhotonTracer.h"
+
+#ifndef FLARE_PHOTONS_PHOTON_PACKET_LANES
+#define FLARE_PHOTONS_PHOTON_PACKET_LANES
+namespace flare::detail {
+
+// Walks in flight: enough independent lanes to overlap the divisions' latency, few enough that
+// the lanes' arrays (about 12 KiB) stay in L1.
+inline constexpr int kPhotonBatch = 128;
+
+// The search's constants: per surface k (the surface behind cell k + 1 and ahead of cell k) and
+// per cell g, each as trace() computes it (the products in its order).
+struct PhotonSearchConstants {
+    int surfaces = 0;
+    double sensorZMm = 0.0;
+    double vertexZMm[kMaxSurfaces] = {}, curvaturePerMm[kMaxSurfaces] = {}, conicFactor[kMaxSurfaces] = {};
+    double branchFactor[kMaxSurfaces] = {};  // curvature × conicFactor: the vertex branch, 1 − c k1 z > 0
+    double rimOuter2Mm2[kMaxSurfaces] = {};  // extent² (1 + seam tolerance): a surface hit within its rim
+    double rimInner2Mm2[kMaxSurfaces] = {};  // extent² (1 − seam tolerance): an annulus hit beyond it
+    double rimZMm[kMaxSurfaces] = {};
+    double inLanes[kMaxSurfaces] = {};       // 1: the lanes intersect it (no polynomial terms)
+    double wall2Mm2[kMaxSurfaces + 1] = {};  // the cell's wall radius squared
+    double wallOuter2Mm2[kMaxSurfaces + 1] = {};  // that × (1 + seam tolerance)
+    double hasMedium[kMaxSurfaces + 1] = {};
+};
+
+// The walks in flight, one array per quantity. The search writes `kind` (0: the photon leaves the
+// lanes at this event, 1: it meets the surface behind, 2: the one ahead) and `t`, the distance.
+struct PhotonSearchLanes {
+    alignas(64) double ox[kPhotonBatch], oy[kPhotonBatch], oz[kPhotonBatch];
+    alignas(64) double dx[kPhotonBatch], dy[kPhotonBatch], dz[kPhotonBatch];
+    alignas(64) std::int64_t cell[kPhotonBatch], onSurface[kPhotonBatch];
+    alignas(64) double t[kPhotonBatch], kind[kPhotonBatch];
+};
+
+}  // namespace flare::detail
+#endif
+
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "flare/photons/PhotonPacket.cpp"
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
+HWY_BEFORE_NAMESPACE();
+namespace flare {
+namespace HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+// trace()'s search for the next boundary of walks [0, count) (count a multiple of the vector
+// length; the lanes beyond the walks hold copies of a walk): trySurface behind and ahead, the
+// sensor plane, the wall's cylinder and the two annuli, in that order, with its tolerances.
+void SearchPhotons(const detail::PhotonSearchConstants& k, detail::PhotonSearchLanes& b, size_t count) {
+    const hn::ScalableTag<double> d;
+    const hn::RebindToSigned<decltype(d)> di;
+    using V = hn::Vec<decltype(d)>;
+    using M = hn::Mask<decltype(d)>;
+    const V zero = hn::Zero(d), one = hn::Set(d, 1.0), two = hn::Set(d, 2.0);
+    const V inf = hn::Set(d, std::numeric_limits<double>::infinity());
+    const V onBoundary = hn::Set(d, 1e-9), leaveSurface = hn::Set(d, 1e-6);
+    const auto lastSurface = hn::Set(di, static_cast<std::int64_t>(k.surfaces - 1));
+    const auto surfaceCount = hn::Set(di, static_cast<std::int64_t>(k.surfaces));
+
+    for (size_t i = 0; i < count; i += hn::Lanes(d)) {
+        const V ox = hn::Load(d, b.ox + i), oy = hn::Load(d, b.oy + i), oz = hn::Load(d, b.oz + i);
+        const V dx = hn::Load(d, b.dx + i), dy = hn::Load(d, b.dy + i), dz = hn::Load(d, b.dz + i);
+        const auto cell = hn::Load(di, b.cell + i), onSurface = hn::Load(di, b.onSurface + i);
+        const M inside = hn::RebindMask(d, hn::Gt(cell, hn::Zero(di)));  // cell > 0: it has walls
+        const M beforeSensor = hn::RebindMask(d, hn::Lt(cell, surfaceCount));
+        M leave = hn::Ne(hn::GatherIndex(d, k.hasMedium, cell), zero);
+        V best = inf, kind = zero;
+
+        // trySurface(k, which): the conic's first hit beyond tMin on its vertex branch.
+        auto trySurface = [&](M active, decltype(cell) surface, double which) {
+            const V vertexZ = hn::GatherIndex(d, k.vertexZMm, surface);
+            const V c = hn::GatherIndex(d, k.curvaturePerMm, surface), k1 = hn::GatherIndex(d, k.conicFactor, surface);
+            const V ck = hn::GatherIndex(d, k.branchFactor, surface), rim = hn::GatherIndex(d, k.rimOuter2Mm2, surface);
+            leave = hn::Or(leave, hn::And(active, hn::Eq(hn::GatherIndex(d, k.inLanes, surface), zero)));
+            const V tMin = hn::IfThenElse(hn::RebindMask(d, hn::Eq(surface, onSurface)), leaveSurface, hn::Neg(onBoundary));
+            const V oz0 = hn::Sub(oz, vertexZ);
+            const V qa = hn::Mul(c, hn::Add(hn::Add(hn::Mul(dx, dx), hn::Mul(dy, dy)), hn::Mul(hn::Mul(k1, dz), dz)));
+            const V qb = hn::Sub(hn::Mul(c, hn::Add(hn::Add(hn::Mul(ox, dx), hn::Mul(oy, dy)), hn::Mul(hn::Mul(k1, oz0), dz))), dz);
+            const V qc = hn::Sub(hn::Mul(c, hn::Add(hn::Add(hn::Mul(ox, ox), hn::Mul(oy, oy)), hn::Mul(hn::Mul(k1, oz0), oz0))),
+                                 hn::Mul(two, oz0));
+            leave = hn::Or(leave, hn::And(active, hn::Gt(hn::Abs(hn::Mul(c, qc)), hn::Set(d, kConicFarOrigin * kConicFarOrigin))));
+            // solveQuadratic: the linear case (a plane) and the cancellation-free roots.
+            const M linear = hn::Eq(qa, zero);
+            const V tLinear = hn::AllFalse(d, linear) ? zero : hn::Div(hn::Neg(qc), hn::Mul(two, qb));
+            const V disc = hn::Sub(hn::Mul(qb, qb), hn::Mul(qa, qc));
+            const V q = hn::Neg(hn::Add(qb, hn::CopySign(hn::Sqrt(disc), qb)));
+            const V r0 = hn::Div(q, qa);
+            const V r1 = hn::IfThenElse(hn::Ne(q, zero), hn::Div(qc, q), r0);
+            const M swap = hn::Gt(r0, r1);
+            const V t0 = hn::IfThenElse(linear, tLinear, hn::IfThenElse(swap, r1, r0));
+            const V t1 = hn::IfThenElse(linear, tLinear, hn::IfThenElse(swap, r0, r1));
+            const M roots = hn::And(active, hn::Or(hn::And(linear, hn::Ne(qb, zero)), hn::AndNot(linear, hn::Not(hn::Lt(disc, zero)))));
+            const M branch0 = hn::Gt(hn::Sub(one, hn::Mul(ck, hn::Add(oz0, hn::Mul(t0, dz)))), zero);
+            const M branch1 = hn::Gt(hn::Sub(one, hn::Mul(ck, hn::Add(oz0, hn::Mul(t1, dz)))), zero);
+            const M ok0 = hn::And(roots, hn::And(hn::Not(hn::Le(t0, tMin)), branch0));
+            const M ok1 = hn::And(roots, hn::And(hn::Not(hn::Le(t1, tMin)), branch1));
+            // The first crossing, if nearer than the best so far.
+            const V tA = hn::IfThenElse(ok0, t0, t1);
+            const M first = hn::And(hn::Or(ok0, ok1), hn::Lt(tA, best));
+            // A hit where the photon stands needs the normal to tell whether it leaves the cell.
+            const M clear = hn::Ge(tA, onBoundary);
+            leave = hn::Or(leave, hn::AndNot(clear, first));
+            const V ax = hn::Add(ox, hn::Mul(tA, dx)), ay = hn::Add(oy, hn::Mul(tA, dy));
+            const M withinA = hn::Le(hn::Add(hn::Mul(ax, ax), hn::Mul(ay, ay)), rim);
+            const M acceptA = hn::And(hn::And(first, clear), withinA);
+            // Beyond the rim, trace() looks for a second crossing, the far root: rare enough
+            // (a steep ray near the wall) to leave to it whenever the far root may be one.
+            leave = hn::Or(leave, hn::AndNot(withinA, hn::And(hn::And(first, clear), hn::And(ok0, ok1))));
+            best = hn::IfThenElse(acceptA, tA, best);
+            kind = hn::IfThenElse(acceptA, hn::Set(d, which), kind);
+        };
+        trySurface(inside, hn::Max(hn::Sub(cell, hn::Set(di, 1)), hn::Zero(di)), 1.0);
+        trySurface(beforeSensor, hn::Min(cell, lastSurface), 2.0);
+
+        // Any other boundary nearer than the surface found: the sensor plane, the wall, an annulus.
+        const M atSensor = hn::And(hn::Not(beforeSensor), hn::Gt(dz, zero));
+        const V tSensor = hn::Div(hn::Sub(hn::Set(d, k.sensorZMm), oz), dz);
+        leave = hn::Or(leave, hn::And(atSensor, hn::And(hn::Ge(tSensor, hn::Neg(onBoundary)), hn::Lt(tSensor, best))));
+
+        // cylinderExit(ray, wall radius).
+        const V wall2 = hn::GatherIndex(d, k.wall2Mm2, cell), wallOuter = hn::GatherIndex(d, k.wallOuter2Mm2, cell);
+        const V ca = hn::Add(hn::Mul(dx, dx), hn::Mul(dy, dy));
+        const V cb = hn::Add(hn::Mul(ox, dx), hn::Mul(oy, dy));
+        const V cc = hn::Sub(hn::Add(hn::Mul(ox, ox), hn::Mul(oy, oy)), wall2);
+        const V cdisc = hn::Sub(hn::Mul(cb, cb), hn::Mul(ca, cc));
+        const V s = hn::Sqrt(hn::Max(cdisc, zero));
+        V tWall = hn::IfThenElse(hn::Le(cb, zero), hn::Div(hn::Sub(s, cb), ca), hn::Div(hn::Neg(cc), hn::Add(cb, s)));
+        tWall = hn::IfThenElse(hn::Lt(cdisc, zero), inf, tWall);
+        tWall = hn::IfThenElse(hn::And(hn::Gt(cc, zero), hn::Or(hn::Ge(cb, zero), hn::Lt(cdisc, zero))), zero, tWall);
+        tWall = hn::IfThenElse(hn::Lt(ca, hn::Set(d, 1e-300)), inf, tWall);
+        leave = hn::Or(leave, hn::And(inside, hn::Lt(tWall, best)));
+
+        // The annuli at the rims behind (facing +z) and ahead (facing −z).
+        auto annulus = [&](M active, decltype(cell) surface) {
+            const V t = hn::Div(hn::Sub(hn::GatherIndex(d, k.rimZMm, surface), oz), dz);
+            const V px = hn::Add(ox, hn::Mul(t, dx)), py = hn::Add(oy, hn::Mul(t, dy));
+            const V r2 = hn::Add(hn::Mul(px, px), hn::Mul(py, py));
+            const M met = hn::And(hn::And(hn::Not(hn::Lt(t, hn::Neg(onBoundary))), hn::Lt(t, best)),
+                                  hn::And(hn::Not(hn::Lt(r2, hn::GatherIndex(d, k.rimInner2Mm2, surface))),
+                                          hn::Not(hn::Gt(r2, wallOuter))));
+            leave = hn::Or(leave, hn::And(active, met));
+        };
+        annulus(hn::And(inside, hn::Lt(dz, zero)), hn::Max(hn::Sub(cell, hn::Set(di, 1)), hn::Zero(di)));
+        annulus(hn::And(hn::And(inside, beforeSensor), hn::Gt(dz, zero)), hn::Min(cell, lastSurface));
+
+        leave = hn::Or(leave, hn::Eq(kind, zero));  // nothing found: escaped or lost
+        hn::Store(best, d, b.t + i);
+        hn::Store(hn::IfThenElse(leave, zero, kind), d, b.kind + i);
+    }
+}
+
+}  // namespace HWY_NAMESPACE
+}  // namespace flare
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace flare {
+
+HWY_EXPORT(SearchPhotons);
+
+std::int64_t PhotonTracer::tracePacket(std::span<PacketPhoton> photons, std::span<PhotonHistory> histories,
+                                       Scratch& scratch) const {
+    // A bounce limit is checked at every reflection: such studies trace one photon at a time.
+    if (maxBounces_ >= 0) {
+        for (size_t i = 0; i < photons.size(); ++i)
+            trace(*photons[i].indices, photons[i].ray, photons[i].rng, histories[i], scratch);
+        return 0;
+    }
+    const LensSystem& lens = *lens_;
+    const int n = lens.surfaceCount();
+    detail::PhotonSearchConstants constants;
+    constants.surfaces = n;
+    constants.sensorZMm = lens.sensorZMm();
+    for (int s = 0; s < n; ++s) {
+        const Surface& surface = lens.surface(s);
+        constants.vertexZMm[s] = surface.vertexZMm;
+        constants.curvaturePerMm[s] = surface.curvature();
+        constants.conicFactor[s] = 1.0 + surface.conic;
+        constants.branchFactor[s] = constants.curvaturePerMm[s] * constants.conicFactor[s];
+        constants.rimOuter2Mm2[s] = rims_[s].extentMm * rims_[s].extentMm * (1.0 + 1e-9);
+        constants.rimInner2Mm2[s] = rims_[s].extentMm * rims_[s].extentMm * (1.0 - 1e-9);
+        constants.rimZMm[s] = rims_[s].zMm;
+        constants.inLanes[s] = surface.hasPolynomial() ? 0.0 : 1.0;
+    }
+    for (int g = 0; g <= n; ++g) {
+        const double wall = cells_[g].wallRadiusMm;
+        constants.wall2Mm2[g] = wall * wall;
+        constants.wallOuter2Mm2[g] = wall * wall * (1.0 + 1e-9);
+        constants.hasMedium[g] = mediumOfCell_[g] >= 0 ? 1.0 : 0.0;
+    }
+
+    // The walks in flight: their rays and cells in the lanes, the rest here.
+    struct Walk {
+        int photon = 0, reflections = 0, events = 0;
+        PathKey key = 0;
+        bool entered = false;
+    };
+    auto lanes = std::make_unique<detail::PhotonSearchLanes>();
+    detail::PhotonSearchLanes& b = *lanes;
+    Walk walks[detail::kPhotonBatch];
+    int live = 0;
+    size_t next = 0;
+    std::int64_t laneEvents = 0;
+    auto rayOf = [&](int j) {
+        return Ray{{b.ox[j], b.oy[j], b.oz[j]}, {b.dx[j], b.dy[j], b.dz[j]}};
+    };
+    auto store = [&](int j, const Ray& ray) {
+        b.ox[j] = ray.originMm.x, b.oy[j] = ray.originMm.y, b.oz[j] = ray.originMm.z;
+        b.dx[j] = ray.direction.x, b.dy[j] = ray.direction.y, b.dz[j] = ray.direction.z;
+    };
+    // The photon leaves the lanes: trace()'s loop from the state before this event.
+    auto handOver = [&](int j) {
+        const Walk& w = walks[j];
+        PacketPhoton& photon = photons[w.photon];
+        const WalkStart start{rayOf(j), static_cast<int>(b.cell[j]), static_cast<int>(b.onSurface[j]),
+                              w.reflections, w.events, w.key, w.entered};
+        traceFrom(*photon.indices, start, photon.rng, histories[w.photon], scratch);
+    };
+    while (true) {
+        while (live < detail::kPhotonBatch && next < photons.size()) {
+            store(live, photons[next].ray);
+            b.cell[live] = 0, b.onSurface[live] = -1;
+            walks[live] = Walk{static_cast<int>(next)};
+            ++live, ++next;
+        }
+        if (live == 0) break;
+        // Pad to whole vectors of the widest kind (8 doubles) with copies of the first walk (their
+        // results are not read).
+        const int padded = (live + 7) / 8 * 8;
+        for (int j = live; j < padded; ++j) {
+            store(j, rayOf(0));
+            b.cell[j] = b.cell[0], b.onSurface[j] = b.onSurface[0];
+        }
+        HWY_DYNAMIC_DISPATCH(SearchPhotons)(constants, b, static_cast<size_t>(padded));
+
+        int kept = 0;
+        for (int j = 0; j < live; ++j) {
+            Walk& w = walks[j];
+            const int cell = static_cast<int>(b.cell[j]);
+            if (b.kind[j] == 0.0 || w.events >= kMaxPhotonEvents) {
+                handOver(j);
+                continue;
+            }
+            // trace()'s handling of a clean interface; anything else leaves the lanes first.
+            Ray ray = rayOf(j);
+            const SpectralIndices& indices = *photons[w.photon].indices;
+            const bool forward = b.kind[j] == 2.0;
+            const int s = forward ? cell : cell - 1;
+            const int other = forward ? cell + 1 : cell - 1;
+            const Surface& surface = lens.surface(s);
+            const glm::dvec3 p = ray.at(b.t[j]);
+            bool handled = true;
+            if (surface.isStop) {
+                handled = lens.iris().contains(p.x, p.y);
+            } else if (p.x * p.x + p.y * p.y > surface.semiApertureMm * surface.semiApertureMm) {
+                handled = false;  // the retaining ring
+            } else if (indices.n[cell] != indices.n[other] && hasContamination_ && contamination_[s].any()) {
+                handled = false;
+            }
+            if (!handled) {
+                handOver(j);
+                continue;
+            }
+            ++w.events;
+            ++laneEvents;
+            ray.originMm = p;
+            b.onSurface[j] = s;
+            const double n1 = indices.n[cell], n2 = indices.n[other];
+            bool crosses = true;
+            if (!surface.isStop && n1 != n2) {
+                const glm::dvec3 normal = surface.normalAt(p);
+                const double cosThetaI = std::min(1.0, std::abs(glm::dot(normal, ray.direction)));
+                double reflectance = 1.0;
+                if (reflectance_) {
+                    reflectance = reflectance_->reflectance(s, forward ? 1 : -1, indices.wavelengthNm, indices, cosThetaI);
+                } else {
+                    const FresnelTerms response = interfaceResponse(lens, indices, s, forward ? 1 : -1, cosThetaI);
+                    reflectance = response.totalInternalReflection ? 1.0 : response.reflectance();
+                }
+                glm::dvec3 refracted;
+                if (photons[w.photon].rng.uniform() < reflectance || !refract(ray.direction, normal, n1, n2, &refracted)) {
+                    const int count = w.reflections++;
+                    if (w.key == kLongPathKey || count >= kPathKeyMaxReflections) {
+                        w.key = kLongPathKey;
+                    } else {
+                        const PathKey low = w.key & ((PathKey{1} << 56) - 1);
+                        w.key = (static_cast<PathKey>(count + 1) << 56) | low | (static_cast<PathKey>(s & 0xff) << (8 * count));
+                    }
+                    ray.direction = glm::normalize(reflect(ray.direction, normal));
+                    crosses = false;
+                } else {
+                    ray.direction = refracted;
+                }
+            }
+            if (crosses) {
+                if (s == 0 && forward && !surface.isStop) w.entered = true;
+                b.cell[j] = other;
+            }
+            // Keep the walk, moved down over those that left.
+            store(kept, ray);
+            b.cell[kept] = b.cell[j], b.onSurface[kept] = b.onSurface[j];
+            walks[kept] = w;
+            ++kept;
+        }
+        live = kept;
+    }
+    return laneEvents;
+}
+
+}  // namespace flare
+#endif  // HWY_ONCE
