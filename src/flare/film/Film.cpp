@@ -506,22 +506,47 @@ Film::ErrorEstimate Film::errorEstimate(int group) const {
     std::lock_guard<std::mutex> lock(*estimateMutex_);
     if (estimates_.size() != groups_.size()) estimates_.assign(groups_.size(), {});
     if (estimates_[group].passes == passes_) return estimates_[group].estimate;
-    ErrorEstimate e;
     const double n = passes_;
-    // Tile by tile over the tiles that exist (a pixel no pass reached has no variance). With
+    // Tile by tile over the tiles that exist (a pixel no pass reached has no variance), the tiles
+    // in parallel and their sums added in tile order (the same answer for any thread count). With
     // independent passes, sums[0] holds the pass images' sum; with replicates, every sum does.
     const int sumsOfPasses = replicates_ > 0 ? replicates_ : 1;
-    const double* sums[kMaxReplicates];
-    for (size_t t = 0; t < g.sums[0]->tiles.size(); ++t) {
-        if (!tileSums(g, t, sums)) continue;
-        for (int i = 0; i < kTilePx * kTilePx * 3; ++i) {
-            double total = 0.0;
-            for (int k = 0; k < sumsOfPasses; ++k) total += sums[k] ? sums[k][i] : 0.0;
-            const double mean = total / n;
-            e.sumVariance += varianceOfMean(sums, i);
-            e.squaredNorm += mean * mean;
+    const size_t tiles = g.sums[0]->tiles.size();
+    std::vector<ErrorEstimate> perTile(tiles);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, tiles, 8), [&](const tbb::blocked_range<size_t>& range) {
+        const double* sums[kMaxReplicates];
+        for (size_t t = range.begin(); t != range.end(); ++t) {
+            if (!tileSums(g, t, sums)) continue;
+            ErrorEstimate& e = perTile[t];
+            constexpr int kValues = kTilePx * kTilePx * 3;
+            if (replicates_ == 0) {
+                // varianceOfMean's formula with its divisions as multiplications (the loop runs
+                // over the whole image, dozens of times in a long render), two sums per quantity.
+                if (!sums[0]) continue;  // (the squares exist wherever the sums do)
+                const double* sum = sums[0];
+                const double* squares = sums[1];
+                const double inverseN = 1.0 / n, inverseDegrees = 1.0 / (n - 1.0);
+                double variance[2] = {0.0, 0.0}, norm[2] = {0.0, 0.0};
+                for (int i = 0; i < kValues; ++i) {
+                    const double mean = sum[i] * inverseN;
+                    variance[i & 1] += std::max(0.0, (squares[i] - n * mean * mean) * inverseDegrees) * inverseN;
+                    norm[i & 1] += mean * mean;
+                }
+                e.sumVariance = variance[0] + variance[1];
+                e.squaredNorm = norm[0] + norm[1];
+                continue;
+            }
+            for (int i = 0; i < kValues; ++i) {
+                double total = 0.0;
+                for (int k = 0; k < sumsOfPasses; ++k) total += sums[k] ? sums[k][i] : 0.0;
+                const double mean = total / n;
+                e.sumVariance += varianceOfMean(sums, i);
+                e.squaredNorm += mean * mean;
+            }
         }
-    }
+    });
+    ErrorEstimate e;
+    for (const ErrorEstimate& t : perTile) e.sumVariance += t.sumVariance, e.squaredNorm += t.squaredNorm;
     estimates_[group] = {passes_, e};
     return e;
 }
