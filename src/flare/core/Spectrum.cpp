@@ -202,12 +202,19 @@ WavelengthSampler::WavelengthSampler(const Spectrum& spectrum, std::span<const d
     for (double& c : cdf_) c /= total;
     cdf_.back() = 1.0;
     inverseLuminance_ = 1.0 / spectrumXyz(spectrum).y;
+    guide_.resize(kGuideCells);
+    for (int k = 0; k < kGuideCells; ++k) {
+        const double u = static_cast<double>(k) / kGuideCells;
+        guide_[k] = static_cast<int>(std::upper_bound(cdf_.begin(), cdf_.end(), u) - cdf_.begin()) - 1;
+    }
 }
 
 double WavelengthSampler::sample(double u, double* pdfPerNm) const {
     u = std::clamp(u, 0.0, 1.0);
     // The bin with cdf_[i] ≤ u < cdf_[i + 1]: never an empty bin, since those have equal ends.
-    int i = static_cast<int>(std::upper_bound(cdf_.begin(), cdf_.end(), u) - cdf_.begin()) - 1;
+    // (As upper_bound(cdf_, u) − 1, walked from the guide's start: cdf_[guide] ≤ k / cells ≤ u.)
+    int i = guide_[std::min(static_cast<int>(u * kGuideCells), kGuideCells - 1)];
+    while (i + 1 < static_cast<int>(cdf_.size()) && cdf_[i + 1] <= u) ++i;
     if (i >= kSamplerBins) {  // u = 1: the last bin with any probability
         i = kSamplerBins - 1;
         while (i > 0 && cdf_[i + 1] == cdf_[i]) --i;

@@ -111,6 +111,10 @@ public:
 private:
     Spectrum spectrum_;
     std::vector<double> cdf_;  // cdf_[i] = P(λ < 360 nm + i·1 nm); 471 entries
+    // A guide to the search: guide_[k] is the last i with cdf_[i] ≤ k / kGuideCells, where the
+    // bin of any u in [k, k + 1) / kGuideCells starts (a few steps instead of a binary search).
+    static constexpr int kGuideCells = 512;
+    std::vector<int> guide_;
     double inverseLuminance_ = 0.0;  // 1 / ∫ S·ȳ dλ over 360–830 nm
 };
 

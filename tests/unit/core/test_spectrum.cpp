@@ -348,6 +348,34 @@ TEST(WavelengthSampler, DensityIsNormalisedAndReportedConsistently) {
     }
 }
 
+// The search for u's bin starts from a guide (one entry per 1/512 of u): at the guide's cell
+// edges, a hair below them and on a dense grid, with an importance that empties whole ranges of
+// bins, every sample lies in a bin of non-zero density, reports that density, and the inverse
+// CDF is monotone.
+TEST(WavelengthSampler, GuidedSearchFindsTheBinOfEveryU) {
+    std::vector<double> importance(static_cast<size_t>(kCieMaxNm - kCieMinNm), 1.0);
+    for (int nm = 500; nm < 600; ++nm) importance[nm - 360] = 0.0;
+    for (int nm = 700; nm < 701; ++nm) importance[nm - 360] = 0.0;
+    const WavelengthSampler sampler(Spectrum::blackbody(5778.0), importance);
+    std::vector<double> us;
+    for (int k = 0; k <= 512; ++k) {
+        us.push_back(std::nextafter(k / 512.0, 0.0));
+        us.push_back(k / 512.0);
+    }
+    for (int i = 0; i <= 20000; ++i) us.push_back(i / 20000.0);
+    std::sort(us.begin(), us.end());
+    double previous = 0.0;
+    for (double u : us) {
+        double pdf = -1.0;
+        const double l = sampler.sample(u, &pdf);
+        EXPECT_GT(pdf, 0.0) << "u " << u;
+        EXPECT_EQ(pdf, sampler.pdf(l)) << "u " << u;
+        EXPECT_FALSE(l >= 500.0 && l < 600.0) << "u " << u << " gave " << l;
+        EXPECT_GE(l, previous) << "u " << u;
+        previous = l;
+    }
+}
+
 TEST(WavelengthSampler, SamplesFollowTheTabulatedDensity) {
     for (const Spectrum& s : {Spectrum::d65(), Spectrum::blackbody(3000.0)}) {
         const WavelengthSampler sampler(s);
