@@ -416,29 +416,30 @@ void Film::endPass(std::int64_t photons) {
     const double scale = 1.0 / (static_cast<double>(photons) * pixelMm_ * pixelMm_ / kMm2PerM2);
     for (Group& group : groups_) {
         Tiles& pass = *group.pass;
-        // Only the tiles this pass touched (a tile's pixels are contiguous in it).
-        for (int ty = 0; ty < pass.tilesY; ++ty)
-            for (int tx = 0; tx < pass.tilesX; ++tx) {
-                if (!pass.tiles[static_cast<size_t>(ty) * pass.tilesX + tx]) continue;
-                const int x1 = std::min((tx + 1) * kTilePx, settings_.widthPx);
-                const int y1 = std::min((ty + 1) * kTilePx, settings_.heightPx);
-                for (int y = ty * kTilePx; y < y1; ++y)
-                    for (int x = tx * kTilePx; x < x1; ++x) {
-                        const double* p = pass.find(x, y);
-                        const glm::dvec3 rgb = xyzToLinearSrgb(glm::dvec3(p[0], p[1], p[2]) * scale);
-                        if (replicates_ > 0) {
-                            double* s = group.sums[passes_ % replicates_]->at(x, y);
-                            for (int c = 0; c < 3; ++c) s[c] += rgb[c];
-                            continue;
-                        }
-                        double* s = group.sums[0]->at(x, y);
-                        double* q = group.sums[1]->at(x, y);
-                        for (int c = 0; c < 3; ++c) {
-                            s[c] += rgb[c];
-                            q[c] += rgb[c] * rgb[c];
-                        }
+        // Only the tiles this pass touched, each in one go (a tile's pixels are contiguous in it,
+        // and in the sums' tile of the same index), the tiles in parallel: each writes its own.
+        // Pixels of an edge tile beyond the image hold zeros and add zeros.
+        const int target = replicates_ > 0 ? passes_ % replicates_ : 0;
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, pass.tiles.size(), 16), [&](const tbb::blocked_range<size_t>& range) {
+            for (size_t t = range.begin(); t != range.end(); ++t) {
+                const double* p = pass.tiles[t].get();
+                if (!p) continue;
+                auto tileOf = [&](Tiles& sums) {
+                    auto& tile = sums.tiles[t];
+                    if (!tile) tile = std::make_unique<double[]>(kTilePx * kTilePx * 3);  // zeroed
+                    return tile.get();
+                };
+                double* s = tileOf(*group.sums[target]);
+                double* q = replicates_ > 0 ? nullptr : tileOf(*group.sums[1]);
+                for (int i = 0; i < kTilePx * kTilePx * 3; i += 3) {
+                    const glm::dvec3 rgb = xyzToLinearSrgb(glm::dvec3(p[i], p[i + 1], p[i + 2]) * scale);
+                    for (int c = 0; c < 3; ++c) {
+                        s[i + c] += rgb[c];
+                        if (q) q[i + c] += rgb[c] * rgb[c];
                     }
+                }
             }
+        });
         pass.clear();
     }
     counts_ = pendingCounts_;
