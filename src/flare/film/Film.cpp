@@ -215,6 +215,30 @@ void Film::addPixel(int layer, bool inTotal, int x, int y, const double* value) 
     }
 }
 
+void Film::addRow(int layer, bool inTotal, int y, int xBegin, int xEnd, const double* values) {
+    // addPixel for each pixel with a non-zero value, a tile's run of the row at a time: its rows
+    // in the layer and the groups are found once per run, and a run of zeros allocates nothing.
+    for (int x0 = xBegin; x0 < xEnd;) {
+        const int x1 = std::min(xEnd, (x0 / kTilePx + 1) * kTilePx);
+        const double* v = values + static_cast<size_t>(x0 - xBegin) * 3;
+        const int n = (x1 - x0) * 3;
+        bool any = false;
+        for (int i = 0; i < n; ++i) any = any || v[i] != 0.0;
+        auto addRun = [&](Tiles& target) {
+            double* p = target.at(x0, y);
+            for (int i = 0; i < n; i += 3)
+                if (v[i] != 0.0 || v[i + 1] != 0.0 || v[i + 2] != 0.0)
+                    for (int c = 0; c < 3; ++c) p[i + c] += v[i + c];
+        };
+        if (any) {
+            addRun(*layers_[layer]);
+            if (inTotal) addRun(*groups_[0].pass);
+            for (int g : layerGroups_[layer]) addRun(*groups_[g].pass);
+        }
+        x0 = x1;
+    }
+}
+
 void Film::addKernel(int layer, bool inTotal, const glm::dvec2& pixel, double radius, const glm::dvec3& value,
                      int rowBegin, int rowEnd) {
     const int w = settings_.widthPx;
@@ -370,17 +394,12 @@ void Film::integrateWideSplats() {
             for (int band = bands.begin(); band != bands.end(); ++band) {
                 const int y0 = std::max(yBegin, band * kBandRows + wide->pad);
                 const int y1 = std::min(yEnd, (band + 1) * kBandRows + wide->pad);
-                for (int y = y0; y < y1; ++y)
-                    for (int x = xBegin; x < xEnd; ++x) {
-                        double v[3];
-                        bool any = false;
-                        for (int c = 0; c < 3; ++c) {
-                            const double d = wide->at(x, y)[c];
-                            v[c] = d > floor ? d : 0.0;
-                            any = any || v[c] > 0.0;
-                        }
-                        if (any) addPixel(layer, inTotal, x - wide->pad, y - wide->pad, v);
-                    }
+                for (int y = y0; y < y1; ++y) {
+                    // (In place: the buffer is cleared below.)
+                    double* row = wide->at(xBegin, y);
+                    for (int i = 0; i < (xEnd - xBegin) * 3; ++i) row[i] = row[i] > floor ? row[i] : 0.0;
+                    addRow(layer, inTotal, y - wide->pad, xBegin - wide->pad, xEnd - wide->pad, row);
+                }
             }
         });
         tbb::parallel_for(tbb::blocked_range<int>(box.y0, box.y1 + 1, 16), [&](const tbb::blocked_range<int>& rows) {
@@ -404,11 +423,7 @@ void Film::splatInBand(int band, int layer, const glm::dvec2& sensorMm, const gl
 void Film::addBand(int band, int layer, const double* rows, bool inTotal) {
     const int w = settings_.widthPx;
     const int rowBegin = band * kBandRows, rowEnd = std::min(settings_.heightPx, rowBegin + kBandRows);
-    for (int y = rowBegin; y < rowEnd; ++y) {
-        const double* p = rows + static_cast<size_t>(y - rowBegin) * w * 3;
-        for (int x = 0; x < w; ++x, p += 3)
-            if (p[0] != 0.0 || p[1] != 0.0 || p[2] != 0.0) addPixel(layer, inTotal, x, y, p);
-    }
+    for (int y = rowBegin; y < rowEnd; ++y) addRow(layer, inTotal, y, 0, w, rows + static_cast<size_t>(y - rowBegin) * w * 3);
 }
 
 void Film::endPass(std::int64_t photons) {

@@ -156,6 +156,8 @@ private:
     void addKernel(int layer, bool inTotal, const glm::dvec2& pixel, double radius, const glm::dvec3& value,
                    int rowBegin, int rowEnd);
     void addPixel(int layer, bool inTotal, int x, int y, const double* value);
+    // addPixel for the pixels [xBegin, xEnd) of row y with non-zero values (3 per pixel).
+    void addRow(int layer, bool inTotal, int y, int xBegin, int xEnd, const double* values);
     void splatRows(int layer, const glm::dvec2& sensorMm, const glm::dvec3& xyzPowerW, bool inTotal, int rowBegin,
                    int rowEnd, bool count);
 
