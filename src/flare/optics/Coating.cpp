@@ -115,4 +115,25 @@ FresnelTerms thinFilmResponse(const Coating& coating, double cosThetaI, double n
     return terms;
 }
 
+double thinFilmReflectanceBound(const Coating& coating, double cosThetaI, double nAir, double nGlass, bool fromAirSide) {
+    if (coating.layers.size() != 1 || coating.ideal) return 1.0;
+    const double n0 = fromAirSide ? nAir : nGlass;
+    const double nSub = fromAirSide ? nGlass : nAir;
+    const double nFilm = coating.layers.front().index;
+    const double c = std::clamp(cosThetaI, 0.0, 1.0);
+    if (c == 0.0) return 1.0;
+    const double sin2 = std::max(0.0, 1.0 - c * c);
+    // sin² of the angles in the film and the substrate, from the invariant n·sinθ.
+    const double film = n0 / nFilm, sub = n0 / nSub;
+    const double sin2Sub = sub * sub * sin2;
+    if (sin2Sub >= 1.0) return 1.0;  // total internal reflection: thinFilmResponse says so exactly
+    const double cosFilm = std::sqrt(std::max(0.0, 1.0 - film * film * sin2)), cosSub = std::sqrt(1.0 - sin2Sub);
+    // s admittances η = n cosθ; |r01| = a1 / a2, |r12| = b1 / b2, and the bound's ratio with one
+    // division: (|r01| + |r12|) / (1 + |r01 r12|) = (a1 b2 + b1 a2) / (a2 b2 + a1 b1).
+    const double eta0 = n0 * c, eta1 = nFilm * cosFilm, eta2 = nSub * cosSub;
+    const double a1 = std::abs(eta0 - eta1), a2 = eta0 + eta1, b1 = std::abs(eta1 - eta2), b2 = eta1 + eta2;
+    const double g = (a1 * b2 + b1 * a2) / (a2 * b2 + a1 * b1);
+    return g * g;
+}
+
 }  // namespace flare

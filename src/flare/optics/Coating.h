@@ -51,4 +51,13 @@ struct Coating {
 FresnelTerms thinFilmResponse(const Coating& coating, double cosThetaI, double nAir, double nGlass,
                               bool fromAirSide, double wavelengthNm);
 
+// An upper bound on thinFilmResponse(...).reflectance() for a single-layer coating, whatever the
+// layer's phase, so without its sincos: each polarisation's reflectance is largest where the
+// film's two reflections add in phase, ((|r01| + |r12|) / (1 + |r01 r12|))² (the Airy formula is
+// monotone in the cosine of twice the phase), and at every dielectric interface |rp| ≤ |rs|, so
+// the s bound holds for the unpolarised mean. Returns 1 (no bound) for any other coating, under
+// total internal reflection and at grazing incidence. A photon whose uniform draw lies above the
+// bound refracts, and the exact response is needed only below it (PhotonTracer).
+double thinFilmReflectanceBound(const Coating& coating, double cosThetaI, double nAir, double nGlass, bool fromAirSide);
+
 }  // namespace flare

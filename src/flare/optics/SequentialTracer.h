@@ -70,5 +70,9 @@ TraceResult tracePath(const LensSystem& lens, const SpectralIndices& indices, co
 // given incidence cosine.
 FresnelTerms interfaceResponse(const LensSystem& lens, const SpectralIndices& indices, int k,
                                int direction, double cosThetaI);
+// An upper bound on interfaceResponse(...).reflectance() (thinFilmReflectanceBound), with the
+// rounding of both sides allowed for: 1 where there is none (uncoated, several layers, ideal).
+double interfaceReflectanceBound(const LensSystem& lens, const SpectralIndices& indices, int k, int direction,
+                                 double cosThetaI);
 
 }  // namespace flare

@@ -301,15 +301,9 @@ std::int64_t PhotonTracer::tracePacket(std::span<PacketPhoton> photons, std::spa
             if (!surface.isStop && n1 != n2) {
                 const glm::dvec3 normal = surface.normalAt(p);
                 const double cosThetaI = std::min(1.0, std::abs(glm::dot(normal, ray.direction)));
-                double reflectance = 1.0;
-                if (reflectance_) {
-                    reflectance = reflectance_->reflectance(s, forward ? 1 : -1, indices.wavelengthNm, indices, cosThetaI);
-                } else {
-                    const FresnelTerms response = interfaceResponse(lens, indices, s, forward ? 1 : -1, cosThetaI);
-                    reflectance = response.totalInternalReflection ? 1.0 : response.reflectance();
-                }
                 glm::dvec3 refracted;
-                if (photons[w.photon].rng.uniform() < reflectance || !refract(ray.direction, normal, n1, n2, &refracted)) {
+                if (reflects(indices, s, forward ? 1 : -1, cosThetaI, photons[w.photon].rng.uniform()) ||
+                    !refract(ray.direction, normal, n1, n2, &refracted)) {
                     const int count = w.reflections++;
                     if (w.key == kLongPathKey || count >= kPathKeyMaxReflections) {
                         w.key = kLongPathKey;

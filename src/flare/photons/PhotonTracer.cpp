@@ -556,15 +556,9 @@ void PhotonTracer::traceFrom(const SpectralIndices& indices, const WalkStart& st
                 }
             }
             const double cosThetaI = std::min(1.0, std::abs(glm::dot(normal, ray.direction)));
-            double reflectance = 1.0;
-            if (reflectance_) {
-                reflectance = reflectance_->reflectance(k, forward ? 1 : -1, indices.wavelengthNm, indices, cosThetaI);
-            } else {
-                const FresnelTerms response = interfaceResponse(lens, indices, k, forward ? 1 : -1, cosThetaI);
-                reflectance = response.totalInternalReflection ? 1.0 : response.reflectance();
-            }
             glm::dvec3 refracted;
-            if (rng.uniform() < reflectance || !refract(ray.direction, normal, n1, n2, &refracted)) {
+            if (reflects(indices, k, forward ? 1 : -1, cosThetaI, rng.uniform()) ||
+                !refract(ray.direction, normal, n1, n2, &refracted)) {
                 if (!addReflection(k)) {
                     h.fate = PhotonFate::BounceLimit;
                     return;
@@ -598,6 +592,15 @@ void PhotonTracer::traceFrom(const SpectralIndices& indices, const WalkStart& st
         connection.event = -1;
         walk();
     }
+}
+
+bool PhotonTracer::reflects(const SpectralIndices& indices, int k, int direction, double cosThetaI, double u) const {
+    // Most draws lie above a single-layer coating's bound (it reflects a few per cent): they
+    // refract without the film's phase. The rest compare with the response itself.
+    if (u >= interfaceReflectanceBound(*lens_, indices, k, direction, cosThetaI)) return false;
+    if (reflectance_) return u < reflectance_->reflectance(k, direction, indices.wavelengthNm, indices, cosThetaI);
+    const FresnelTerms response = interfaceResponse(*lens_, indices, k, direction, cosThetaI);
+    return u < (response.totalInternalReflection ? 1.0 : response.reflectance());
 }
 
 double PhotonTracer::clearTransmittance(const std::vector<glm::dvec3>& points, const std::vector<int>& surfaces,

@@ -243,6 +243,10 @@ private:
     };
     void traceFrom(const SpectralIndices& indices, const WalkStart& start, Rng& rng, PhotonHistory& history,
                    Scratch& scratch) const;
+    // Whether a photon meeting surface k (direction +1 towards the sensor) at incidence cosine
+    // cosThetaI reflects, for its uniform draw u: u < the reflectance (the table's, or the exact
+    // response; 1 under total internal reflection).
+    bool reflects(const SpectralIndices& indices, int k, int direction, double cosThetaI, double u) const;
     struct Cell {
         double wallRadiusMm = 0.0;
         bool glass = false;
