@@ -431,31 +431,34 @@ void Film::endPass(std::int64_t photons) {
     const double scale = 1.0 / (static_cast<double>(photons) * pixelMm_ * pixelMm_ / kMm2PerM2);
     for (Group& group : groups_) {
         Tiles& pass = *group.pass;
-        // Only the tiles this pass touched, each in one go (a tile's pixels are contiguous in it,
+        // Only the tiles this pass reached, each in one go (a tile's pixels are contiguous in it,
         // and in the sums' tile of the same index), the tiles in parallel: each writes its own.
-        // Pixels of an edge tile beyond the image hold zeros and add zeros.
+        // A pixel the pass left at zero adds zeros and is skipped. The pass's tiles are zeroed
+        // for the next pass rather than freed (allocating them again cost page faults every pass).
         const int target = replicates_ > 0 ? passes_ % replicates_ : 0;
         tbb::parallel_for(tbb::blocked_range<size_t>(0, pass.tiles.size(), 16), [&](const tbb::blocked_range<size_t>& range) {
+            constexpr int kValues = kTilePx * kTilePx * 3;
             for (size_t t = range.begin(); t != range.end(); ++t) {
-                const double* p = pass.tiles[t].get();
-                if (!p) continue;
+                double* p = pass.tiles[t].get();
+                if (!p || std::all_of(p, p + kValues, [](double v) { return v == 0.0; })) continue;
                 auto tileOf = [&](Tiles& sums) {
                     auto& tile = sums.tiles[t];
-                    if (!tile) tile = std::make_unique<double[]>(kTilePx * kTilePx * 3);  // zeroed
+                    if (!tile) tile = std::make_unique<double[]>(kValues);  // zeroed
                     return tile.get();
                 };
                 double* s = tileOf(*group.sums[target]);
                 double* q = replicates_ > 0 ? nullptr : tileOf(*group.sums[1]);
-                for (int i = 0; i < kTilePx * kTilePx * 3; i += 3) {
+                for (int i = 0; i < kValues; i += 3) {
+                    if (p[i] == 0.0 && p[i + 1] == 0.0 && p[i + 2] == 0.0) continue;
                     const glm::dvec3 rgb = xyzToLinearSrgb(glm::dvec3(p[i], p[i + 1], p[i + 2]) * scale);
                     for (int c = 0; c < 3; ++c) {
                         s[i + c] += rgb[c];
                         if (q) q[i + c] += rgb[c] * rgb[c];
                     }
                 }
+                std::fill(p, p + kValues, 0.0);
             }
         });
-        pass.clear();
     }
     counts_ = pendingCounts_;
     powers_ = pendingPowers_;
