@@ -44,6 +44,10 @@ T readRaw(std::istream& in) {
 struct Film::Tiles {
     int width, height, tilesX, tilesY;
     std::vector<std::unique_ptr<double[]>> tiles;
+    // Zeroed tiles given back (recycle) for the next allocations: a pass's tiles are allocated
+    // again every pass, and fresh memory costs page faults. Bands allocate in parallel.
+    std::vector<std::unique_ptr<double[]>> spare;
+    std::unique_ptr<std::mutex> spareMutex = std::make_unique<std::mutex>();
 
     Tiles(int w, int h)
         : width(w), height(h), tilesX((w + kTilePx - 1) / kTilePx), tilesY((h + kTilePx - 1) / kTilePx),
@@ -51,8 +55,21 @@ struct Film::Tiles {
 
     double* at(int x, int y) {
         auto& tile = tiles[static_cast<size_t>(y / kTilePx) * tilesX + x / kTilePx];
-        if (!tile) tile = std::make_unique<double[]>(kTilePx * kTilePx * 3);  // zeroed
+        if (!tile) {
+            std::lock_guard<std::mutex> lock(*spareMutex);
+            if (spare.empty()) {
+                tile = std::make_unique<double[]>(kTilePx * kTilePx * 3);  // zeroed
+            } else {
+                tile = std::move(spare.back());
+                spare.pop_back();
+            }
+        }
         return &tile[(static_cast<size_t>(y % kTilePx) * kTilePx + x % kTilePx) * 3];
+    }
+    // Tile t, which must be all zeros, goes back to the spares.
+    void recycle(size_t t) {
+        std::lock_guard<std::mutex> lock(*spareMutex);
+        spare.push_back(std::move(tiles[t]));
     }
     const double* find(int x, int y) const {
         const auto& tile = tiles[static_cast<size_t>(y / kTilePx) * tilesX + x / kTilePx];
@@ -434,13 +451,17 @@ void Film::endPass(std::int64_t photons) {
         // Only the tiles this pass reached, each in one go (a tile's pixels are contiguous in it,
         // and in the sums' tile of the same index), the tiles in parallel: each writes its own.
         // A pixel the pass left at zero adds zeros and is skipped. The pass's tiles are zeroed
-        // for the next pass rather than freed (allocating them again cost page faults every pass).
+        // and kept for the next pass's allocations (fresh ones cost page faults every pass).
         const int target = replicates_ > 0 ? passes_ % replicates_ : 0;
         tbb::parallel_for(tbb::blocked_range<size_t>(0, pass.tiles.size(), 16), [&](const tbb::blocked_range<size_t>& range) {
             constexpr int kValues = kTilePx * kTilePx * 3;
             for (size_t t = range.begin(); t != range.end(); ++t) {
                 double* p = pass.tiles[t].get();
-                if (!p || std::all_of(p, p + kValues, [](double v) { return v == 0.0; })) continue;
+                if (!p) continue;
+                if (std::all_of(p, p + kValues, [](double v) { return v == 0.0; })) {
+                    pass.recycle(t);
+                    continue;
+                }
                 auto tileOf = [&](Tiles& sums) {
                     auto& tile = sums.tiles[t];
                     if (!tile) tile = std::make_unique<double[]>(kValues);  // zeroed
@@ -457,6 +478,7 @@ void Film::endPass(std::int64_t photons) {
                     }
                 }
                 std::fill(p, p + kValues, 0.0);
+                pass.recycle(t);
             }
         });
     }
