@@ -47,6 +47,10 @@ struct PhotonSearchConstants {
     double rimInner2Mm2[kMaxSurfaces] = {};  // extent² (1 − seam tolerance): an annulus hit beyond it
     double rimZMm[kMaxSurfaces] = {};
     double inLanes[kMaxSurfaces] = {};       // 1: the lanes intersect it (no polynomial terms)
+    // Meeting a surface: a sphere's radius and centre (normalAt), a plane's flag, and a
+    // single-layer coating's film index (0: no bound, the exact response decides).
+    double radiusMm[kMaxSurfaces] = {}, centreZMm[kMaxSurfaces] = {}, plane[kMaxSurfaces] = {};
+    double filmIndex[kMaxSurfaces] = {};
     double wall2Mm2[kMaxSurfaces + 1] = {};  // the cell's wall radius squared
     double wallOuter2Mm2[kMaxSurfaces + 1] = {};  // that × (1 + seam tolerance)
     double hasMedium[kMaxSurfaces + 1] = {};
@@ -59,6 +63,17 @@ struct PhotonSearchLanes {
     alignas(64) double dx[kPhotonBatch], dy[kPhotonBatch], dz[kPhotonBatch];
     alignas(64) std::int64_t cell[kPhotonBatch], onSurface[kPhotonBatch];
     alignas(64) double t[kPhotonBatch], kind[kPhotonBatch];
+    // Meeting the surface found (MeetSurfaces), for the walks with meet = 1: the hit point, the
+    // indices before and after, the direction of travel (±1), the surface and the photon's draw;
+    // out, the incidence cosine, whether the draw lies above the coating's bound (certain), the
+    // refracted direction unless total internal reflection (tir) and the reflected one.
+    alignas(64) double meet[kPhotonBatch];
+    alignas(64) double px[kPhotonBatch], py[kPhotonBatch], pz[kPhotonBatch];
+    alignas(64) double n1[kPhotonBatch], n2[kPhotonBatch], direction[kPhotonBatch], u[kPhotonBatch];
+    alignas(64) std::int64_t surface[kPhotonBatch];
+    alignas(64) double cosine[kPhotonBatch], certain[kPhotonBatch], tir[kPhotonBatch];
+    alignas(64) double rx[kPhotonBatch], ry[kPhotonBatch], rz[kPhotonBatch];
+    alignas(64) double fx[kPhotonBatch], fy[kPhotonBatch], fz[kPhotonBatch];
 };
 
 }  // namespace flare::detail
@@ -180,6 +195,80 @@ void SearchPhotons(const detail::PhotonSearchConstants& k, detail::PhotonSearchL
     }
 }
 
+// trace()'s meeting of a sphere or a plane for the walks with meet = 1 (count a multiple of the
+// vector length), each operation as the scalar code does it: Surface::normalAt, the incidence
+// cosine, interfaceReflectanceBound (thinFilmReflectanceBound and its margin), refract() and
+// glm::normalize(reflect()). The choice between the two directions stays with the caller.
+void MeetSurfaces(const detail::PhotonSearchConstants& k, detail::PhotonSearchLanes& b, size_t count) {
+    const hn::ScalableTag<double> d;
+    const hn::RebindToSigned<decltype(d)> di;
+    using V = hn::Vec<decltype(d)>;
+    using M = hn::Mask<decltype(d)>;
+    const V zero = hn::Zero(d), one = hn::Set(d, 1.0), two = hn::Set(d, 2.0);
+    auto normalize = [&](V& x, V& y, V& z) {  // glm::normalize: v · (1 / √(v·v))
+        const V inverse = hn::Div(one, hn::Sqrt(hn::Add(hn::Add(hn::Mul(x, x), hn::Mul(y, y)), hn::Mul(z, z))));
+        x = hn::Mul(x, inverse), y = hn::Mul(y, inverse), z = hn::Mul(z, inverse);
+    };
+    for (size_t i = 0; i < count; i += hn::Lanes(d)) {
+        const M active = hn::Eq(hn::Load(d, b.meet + i), one);
+        if (hn::AllFalse(d, active)) continue;
+        const auto surface = hn::Load(di, b.surface + i);
+        const V px = hn::Load(d, b.px + i), py = hn::Load(d, b.py + i), pz = hn::Load(d, b.pz + i);
+        const V dx = hn::Load(d, b.dx + i), dy = hn::Load(d, b.dy + i), dz = hn::Load(d, b.dz + i);
+        const V n1 = hn::Load(d, b.n1 + i), n2 = hn::Load(d, b.n2 + i);
+        // Surface::normalAt: (0, 0, 1) for a plane, (centre − p) / R for a sphere.
+        const M plane = hn::Ne(hn::GatherIndex(d, k.plane, surface), zero);
+        const V radius = hn::IfThenElse(plane, one, hn::GatherIndex(d, k.radiusMm, surface));
+        const V nx = hn::IfThenElse(plane, zero, hn::Div(hn::Sub(zero, px), radius));
+        const V ny = hn::IfThenElse(plane, zero, hn::Div(hn::Sub(zero, py), radius));
+        const V nz = hn::IfThenElse(plane, one, hn::Div(hn::Sub(hn::GatherIndex(d, k.centreZMm, surface), pz), radius));
+        const V dot = hn::Add(hn::Add(hn::Mul(nx, dx), hn::Mul(ny, dy)), hn::Mul(nz, dz));
+        const V c = hn::Min(one, hn::Abs(dot));
+        hn::Store(c, d, b.cosine + i);
+
+        // interfaceReflectanceBound with n0 = n1 (the incident medium) and nSub = n2.
+        const V film = hn::GatherIndex(d, k.filmIndex, surface);
+        const V cc = hn::Min(hn::Max(c, zero), one);
+        const V sin2 = hn::Max(zero, hn::Sub(one, hn::Mul(cc, cc)));
+        const V ratioFilm = hn::Div(n1, hn::IfThenElse(hn::Eq(film, zero), one, film)), ratioSub = hn::Div(n1, n2);
+        const V sin2Sub = hn::Mul(hn::Mul(ratioSub, ratioSub), sin2);
+        const V cosFilm = hn::Sqrt(hn::Max(zero, hn::Sub(one, hn::Mul(hn::Mul(ratioFilm, ratioFilm), sin2))));
+        const V cosSub = hn::Sqrt(hn::Max(zero, hn::Sub(one, sin2Sub)));
+        const V eta0 = hn::Mul(n1, cc), eta1 = hn::Mul(film, cosFilm), eta2 = hn::Mul(n2, cosSub);
+        const V a1 = hn::Abs(hn::Sub(eta0, eta1)), a2 = hn::Add(eta0, eta1);
+        const V b1 = hn::Abs(hn::Sub(eta1, eta2)), b2 = hn::Add(eta1, eta2);
+        const V g = hn::Div(hn::Add(hn::Mul(a1, b2), hn::Mul(b1, a2)), hn::Add(hn::Mul(a2, b2), hn::Mul(a1, b1)));
+        V bound = hn::Mul(g, g);
+        const M none = hn::Or(hn::Or(hn::Eq(film, zero), hn::Eq(cc, zero)), hn::Ge(sin2Sub, one));
+        bound = hn::IfThenElse(hn::Or(none, hn::Ge(bound, one)), one,
+                               hn::Add(hn::Mul(bound, hn::Set(d, 1.0 + 1e-9)), hn::Set(d, 1e-12)));
+        const M certain = hn::Ge(hn::Load(d, b.u + i), bound);
+        hn::Store(hn::IfThenElseZero(certain, one), d, b.certain + i);
+
+        // refract(direction, normal, n1, n2): the normal turned against the ray.
+        const V cosIn = hn::Neg(hn::Add(hn::Add(hn::Mul(dx, nx), hn::Mul(dy, ny)), hn::Mul(dz, nz)));
+        const M flip = hn::Lt(cosIn, zero);
+        const V mx = hn::IfThenElse(flip, hn::Neg(nx), nx), my = hn::IfThenElse(flip, hn::Neg(ny), ny);
+        const V mz = hn::IfThenElse(flip, hn::Neg(nz), nz), cosI = hn::IfThenElse(flip, hn::Neg(cosIn), cosIn);
+        const V eta = hn::Div(n1, n2);
+        const V sin2T = hn::Mul(hn::Mul(eta, eta), hn::Max(zero, hn::Sub(one, hn::Mul(cosI, cosI))));
+        const M tir = hn::Ge(sin2T, one);
+        hn::Store(hn::IfThenElseZero(tir, one), d, b.tir + i);
+        const V cosT = hn::Sqrt(hn::Max(zero, hn::Sub(one, sin2T)));
+        const V f = hn::Sub(hn::Mul(eta, cosI), cosT);
+        V rx = hn::Add(hn::Mul(eta, dx), hn::Mul(f, mx)), ry = hn::Add(hn::Mul(eta, dy), hn::Mul(f, my));
+        V rz = hn::Add(hn::Mul(eta, dz), hn::Mul(f, mz));
+        normalize(rx, ry, rz);
+        hn::Store(rx, d, b.rx + i), hn::Store(ry, d, b.ry + i), hn::Store(rz, d, b.rz + i);
+
+        // glm::normalize(reflect(direction, normal)): d − (2 (d·n)) n.
+        const V k2 = hn::Mul(two, hn::Add(hn::Add(hn::Mul(dx, nx), hn::Mul(dy, ny)), hn::Mul(dz, nz)));
+        V fx = hn::Sub(dx, hn::Mul(k2, nx)), fy = hn::Sub(dy, hn::Mul(k2, ny)), fz = hn::Sub(dz, hn::Mul(k2, nz));
+        normalize(fx, fy, fz);
+        hn::Store(fx, d, b.fx + i), hn::Store(fy, d, b.fy + i), hn::Store(fz, d, b.fz + i);
+    }
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace flare
 HWY_AFTER_NAMESPACE();
@@ -188,6 +277,7 @@ HWY_AFTER_NAMESPACE();
 namespace flare {
 
 HWY_EXPORT(SearchPhotons);
+HWY_EXPORT(MeetSurfaces);
 
 std::int64_t PhotonTracer::tracePacket(std::span<PacketPhoton> photons, std::span<PhotonHistory> histories,
                                        Scratch& scratch) const {
@@ -212,6 +302,11 @@ std::int64_t PhotonTracer::tracePacket(std::span<PacketPhoton> photons, std::spa
         constants.rimInner2Mm2[s] = rims_[s].extentMm * rims_[s].extentMm * (1.0 - 1e-9);
         constants.rimZMm[s] = rims_[s].zMm;
         constants.inLanes[s] = surface.hasPolynomial() ? 0.0 : 1.0;
+        constants.plane[s] = surface.isPlane() ? 1.0 : 0.0;
+        constants.radiusMm[s] = surface.radiusMm;
+        constants.centreZMm[s] = surface.vertexZMm + surface.radiusMm;
+        const Coating* coating = lens.coating(s);
+        if (coating && coating->layers.size() == 1 && !coating->ideal) constants.filmIndex[s] = coating->layers.front().index;
     }
     for (int g = 0; g <= n; ++g) {
         const double wall = cells_[g].wallRadiusMm;
@@ -264,46 +359,77 @@ std::int64_t PhotonTracer::tracePacket(std::span<PacketPhoton> photons, std::spa
         }
         HWY_DYNAMIC_DISPATCH(SearchPhotons)(constants, b, static_cast<size_t>(padded));
 
-        int kept = 0;
+        // Each walk's event: those that leave the lanes go to trace()'s loop, a surface between
+        // equal media and the iris's opening are crossed here, and an interface is set up for
+        // MeetSurfaces (its draw taken now: each photon has its own generator).
+        bool leaves[detail::kPhotonBatch];
         for (int j = 0; j < live; ++j) {
             Walk& w = walks[j];
+            b.meet[j] = 0.0;
+            leaves[j] = true;
             const int cell = static_cast<int>(b.cell[j]);
             if (b.kind[j] == 0.0 || w.events >= kMaxPhotonEvents) {
                 handOver(j);
                 continue;
             }
             // trace()'s handling of a clean interface; anything else leaves the lanes first.
-            Ray ray = rayOf(j);
             const SpectralIndices& indices = *photons[w.photon].indices;
             const bool forward = b.kind[j] == 2.0;
             const int s = forward ? cell : cell - 1;
             const int other = forward ? cell + 1 : cell - 1;
             const Surface& surface = lens.surface(s);
-            const glm::dvec3 p = ray.at(b.t[j]);
-            bool handled = true;
-            if (surface.isStop) {
-                handled = lens.iris().contains(p.x, p.y);
-            } else if (p.x * p.x + p.y * p.y > surface.semiApertureMm * surface.semiApertureMm) {
-                handled = false;  // the retaining ring
-            } else if (indices.n[cell] != indices.n[other] && hasContamination_ && contamination_[s].any()) {
-                handled = false;
-            }
-            if (!handled) {
-                handOver(j);
+            const glm::dvec3 p = rayOf(j).at(b.t[j]);
+            const bool equalMedia = indices.n[cell] == indices.n[other];
+            if ((surface.isStop && !lens.iris().contains(p.x, p.y)) ||
+                (!surface.isStop && p.x * p.x + p.y * p.y > surface.semiApertureMm * surface.semiApertureMm) ||
+                (!surface.isStop && !equalMedia && hasContamination_ && contamination_[s].any())) {
+                handOver(j);  // the blades, a retaining ring, dust or grease
                 continue;
             }
+            leaves[j] = false;
             ++w.events;
             ++laneEvents;
-            ray.originMm = p;
+            b.ox[j] = p.x, b.oy[j] = p.y, b.oz[j] = p.z;
             b.onSurface[j] = s;
-            const double n1 = indices.n[cell], n2 = indices.n[other];
-            bool crosses = true;
-            if (!surface.isStop && n1 != n2) {
-                const glm::dvec3 normal = surface.normalAt(p);
-                const double cosThetaI = std::min(1.0, std::abs(glm::dot(normal, ray.direction)));
-                glm::dvec3 refracted;
-                if (reflects(indices, s, forward ? 1 : -1, cosThetaI, photons[w.photon].rng.uniform()) ||
-                    !refract(ray.direction, normal, n1, n2, &refracted)) {
+            if (surface.isStop || equalMedia) {
+                if (s == 0 && forward && !surface.isStop) w.entered = true;
+                b.cell[j] = other;
+                continue;
+            }
+            b.px[j] = p.x, b.py[j] = p.y, b.pz[j] = p.z;
+            b.n1[j] = indices.n[cell], b.n2[j] = indices.n[other];
+            b.direction[j] = forward ? 1.0 : -1.0;
+            b.surface[j] = s;
+            b.u[j] = photons[w.photon].rng.uniform();
+            // Spheres and planes in the lanes; a conic's normal (Surface::sagSlope) here.
+            b.meet[j] = surface.isPlane() || (surface.conic == 0.0 && !surface.hasPolynomial()) ? 1.0 : 2.0;
+        }
+        for (int j = live; j < padded; ++j) b.meet[j] = 0.0;
+        HWY_DYNAMIC_DISPATCH(MeetSurfaces)(constants, b, static_cast<size_t>(padded));
+
+        int kept = 0;
+        for (int j = 0; j < live; ++j) {
+            if (leaves[j]) continue;
+            Walk& w = walks[j];
+            Ray ray = rayOf(j);
+            if (b.meet[j] != 0.0) {
+                const SpectralIndices& indices = *photons[w.photon].indices;
+                const int s = static_cast<int>(b.surface[j]);
+                const int direction = b.direction[j] > 0.0 ? 1 : -1;
+                bool reflected = false;
+                if (b.meet[j] == 1.0) {
+                    // (A draw above the bound refracts: reflects() would answer false at once.)
+                    reflected = (b.certain[j] == 0.0 && reflects(indices, s, direction, b.cosine[j], b.u[j])) || b.tir[j] != 0.0;
+                    ray.direction = reflected ? glm::dvec3(b.fx[j], b.fy[j], b.fz[j]) : glm::dvec3(b.rx[j], b.ry[j], b.rz[j]);
+                } else {
+                    const glm::dvec3 normal = lens.surface(s).normalAt(ray.originMm);
+                    const double cosThetaI = std::min(1.0, std::abs(glm::dot(normal, ray.direction)));
+                    glm::dvec3 refracted;
+                    reflected = reflects(indices, s, direction, cosThetaI, b.u[j]) ||
+                                !refract(ray.direction, normal, b.n1[j], b.n2[j], &refracted);
+                    ray.direction = reflected ? glm::normalize(reflect(ray.direction, normal)) : refracted;
+                }
+                if (reflected) {
                     const int count = w.reflections++;
                     if (w.key == kLongPathKey || count >= kPathKeyMaxReflections) {
                         w.key = kLongPathKey;
@@ -311,15 +437,10 @@ std::int64_t PhotonTracer::tracePacket(std::span<PacketPhoton> photons, std::spa
                         const PathKey low = w.key & ((PathKey{1} << 56) - 1);
                         w.key = (static_cast<PathKey>(count + 1) << 56) | low | (static_cast<PathKey>(s & 0xff) << (8 * count));
                     }
-                    ray.direction = glm::normalize(reflect(ray.direction, normal));
-                    crosses = false;
                 } else {
-                    ray.direction = refracted;
+                    if (s == 0 && direction > 0) w.entered = true;
+                    b.cell[j] = direction > 0 ? s + 1 : s;
                 }
-            }
-            if (crosses) {
-                if (s == 0 && forward && !surface.isStop) w.entered = true;
-                b.cell[j] = other;
             }
             // Keep the walk, moved down over those that left.
             store(kept, ray);
