@@ -380,8 +380,29 @@ std::int64_t PhotonTracer::tracePacket(std::span<PacketPhoton> photons, std::spa
             const Surface& surface = lens.surface(s);
             const glm::dvec3 p = rayOf(j).at(b.t[j]);
             const bool equalMedia = indices.n[cell] == indices.n[other];
-            if ((surface.isStop && !lens.iris().contains(p.x, p.y)) ||
-                (!surface.isStop && p.x * p.x + p.y * p.y > surface.semiApertureMm * surface.semiApertureMm) ||
+            if (surface.isStop && !lens.iris().contains(p.x, p.y)) {
+                // The blades. trace()'s scatterOff: an analog walk draws whether the paint
+                // scatters; absorbed (most of the time, and always on black blades), the walk ends
+                // here, as trace() would end it. Scattered, or with stray light weights, it goes to
+                // trace() from before the draw.
+                const double paint = materials_.irisAlbedo + materials_.irisGlossy;
+                Rng rng = photons[w.photon].rng;
+                const bool black = materials_.irisAlbedo <= 0.0 && materials_.irisGlossy <= 0.0;
+                if (!stray_.weighted && (black || rng.uniform() >= paint)) {
+                    photons[w.photon].rng = rng;
+                    PhotonHistory& h = histories[w.photon];
+                    h = PhotonHistory{};
+                    h.fate = PhotonFate::AbsorbedIris;
+                    h.entered = w.entered;
+                    h.reflections = w.reflections;
+                    h.events = w.events + 1;
+                    ++laneEvents;
+                } else {
+                    handOver(j);
+                }
+                continue;
+            }
+            if ((!surface.isStop && p.x * p.x + p.y * p.y > surface.semiApertureMm * surface.semiApertureMm) ||
                 (!surface.isStop && !equalMedia && hasContamination_ && contamination_[s].any())) {
                 handOver(j);  // the blades, a retaining ring, dust or grease
                 continue;

@@ -145,6 +145,9 @@ TEST(PhotonPacket, EqualsTraceWhereTheCoatingReflectsMuch) {
     const PhotonTracer tracer(lens, greyInterior());
     const Outcome o = compareWalks(tracer, 4000, 16);
     EXPECT_GT(o.laneEvents, o.events / 2);
+    // And a black interior: the blades absorb without a draw.
+    const Outcome black = compareWalks(PhotonTracer(lens, InteriorMaterials{}), 2000, 17);
+    EXPECT_GT(fate(black, PhotonFate::AbsorbedIris), 30);
 }
 
 TEST(PhotonPacket, EqualsTraceOnAspheresAndSteepSurfaces) {
