@@ -391,7 +391,7 @@ std::int64_t PhotonTracer::tracePacket(std::span<PacketPhoton> photons, std::spa
                 if (!stray_.weighted && (black || rng.uniform() >= paint)) {
                     photons[w.photon].rng = rng;
                     PhotonHistory& h = histories[w.photon];
-                    h = PhotonHistory{};
+                    h.restart();
                     h.fate = PhotonFate::AbsorbedIris;
                     h.entered = w.entered;
                     h.reflections = w.reflections;
@@ -465,8 +465,10 @@ std::int64_t PhotonTracer::tracePacket(std::span<PacketPhoton> photons, std::spa
             }
             // Keep the walk, moved down over those that left.
             store(kept, ray);
-            b.cell[kept] = b.cell[j], b.onSurface[kept] = b.onSurface[j];
-            walks[kept] = w;
+            if (kept != j) {
+                b.cell[kept] = b.cell[j], b.onSurface[kept] = b.onSurface[j];
+                walks[kept] = w;
+            }
             ++kept;
         }
         live = kept;

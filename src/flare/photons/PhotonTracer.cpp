@@ -166,7 +166,7 @@ void PhotonTracer::traceFrom(const SpectralIndices& indices, const WalkStart& st
                              Scratch& scratch) const {
     const LensSystem& lens = *lens_;
     const int n = lens.surfaceCount();
-    h = PhotonHistory{};
+    h.restart();
     h.reflections = start.reflections;
     h.events = start.events;
     h.entered = start.entered;
