@@ -1,20 +1,24 @@
 // PhotonTracer::tracePacket: photon walks whose stretches between interfaces run in SIMD lanes.
 //
 // A walk in a clean lens is mostly one kind of event: the photon crosses its cell to the surface
-// ahead or behind and reflects or refracts there. Finding that surface is the costly part of
-// trace()'s loop (two quadratics, the wall's cylinder, two annuli, all chains of divisions and
-// square roots), and it is the same computation for every photon, with the cell's constants. So
-// up to kPhotonBatch walks are kept in flight: one vector pass finds the next boundary of every
-// walk (the cell's constants gathered per lane), then each photon meets its surface in turn with
-// trace()'s own scalar code (the Fresnel/coating choice draws from the photon's generator).
+// ahead or behind and reflects or refracts there. That is the same computation for every photon
+// with its cell's constants, so up to kPhotonBatch walks are kept in flight and each round runs
+// two vector passes over them (Highway's run-time dispatch): SearchPhotons finds every walk's next
+// boundary (the cell's two surfaces, an asphere by intersect()'s Newton iteration, the sensor
+// plane, the wall's cylinder, the two annuli; the constants gathered per lane), and MeetSurfaces
+// meets a sphere or a plane (the normal, the incidence cosine, the coating's reflectance bound,
+// the refracted and the reflected directions). Between the two, each walk's event is sorted one
+// at a time and its draw taken from its own generator; after them, the choice is made (the exact
+// response only for draws below the bound) and the walks still going are moved down.
 //
-// Every operation of the search is trace()'s, in its order (no fused multiply-adds: this file is
-// compiled with -ffp-contract=off), so the lanes find the same boundary at the same distance to
-// the last bit. Where the search would need more than the lanes do (a hit within the seam
-// tolerance of where the photon stands, an asphere's Newton iteration, an origin far from a
-// conic) and at every event other than a clean interface, the photon leaves the lanes: trace()'s
-// loop (traceFrom) goes on from the state before that event, so the photon's history is the one
-// trace() gives, and the test holds them to it bit for bit on every instruction set.
+// Every operation is trace()'s, in its order (no fused multiply-adds: this file is compiled with
+// -ffp-contract=off), so each lane finds the same boundary and direction to the last bit. At any
+// event the lanes do not take (a wall, a retaining ring, the sensor, dust, grease, a medium,
+// blades that scatter, a hit within the seam tolerance of where the photon stands, an origin far
+// from a conic, a further crossing beyond a surface's rim), the photon leaves the lanes:
+// trace()'s loop (traceFrom) goes on from the state before that event. The photon's history is
+// then the one trace() gives, and test_photon_packet.cpp holds them to it bit for bit on every
+// instruction set.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -46,7 +50,11 @@ struct PhotonSearchConstants {
     double rimOuter2Mm2[kMaxSurfaces] = {};  // extent² (1 + seam tolerance): a surface hit within its rim
     double rimInner2Mm2[kMaxSurfaces] = {};  // extent² (1 − seam tolerance): an annulus hit beyond it
     double rimZMm[kMaxSurfaces] = {};
-    double inLanes[kMaxSurfaces] = {};       // 1: the lanes intersect it (no polynomial terms)
+    // An asphere (polynomial terms): intersect()'s Newton iteration, with (1 + k) c², the
+    // coefficients A4..A16 and their slope coefficients (m + 2) A_{2m+4}, term by term.
+    double polynomial[kMaxSurfaces] = {};
+    double newtonConicFactor[kMaxSurfaces] = {};
+    double asphere[kAsphereTerms][kMaxSurfaces] = {}, slopeCoefficient[kAsphereTerms][kMaxSurfaces] = {};
     // Meeting a surface: a sphere's radius and centre (normalAt), a plane's flag, and a
     // single-layer coating's film index (0: no bound, the exact response decides).
     double radiusMm[kMaxSurfaces] = {}, centreZMm[kMaxSurfaces] = {}, plane[kMaxSurfaces] = {};
@@ -117,7 +125,6 @@ void SearchPhotons(const detail::PhotonSearchConstants& k, detail::PhotonSearchL
             const V vertexZ = hn::GatherIndex(d, k.vertexZMm, surface);
             const V c = hn::GatherIndex(d, k.curvaturePerMm, surface), k1 = hn::GatherIndex(d, k.conicFactor, surface);
             const V ck = hn::GatherIndex(d, k.branchFactor, surface), rim = hn::GatherIndex(d, k.rimOuter2Mm2, surface);
-            leave = hn::Or(leave, hn::And(active, hn::Eq(hn::GatherIndex(d, k.inLanes, surface), zero)));
             const V tMin = hn::IfThenElse(hn::RebindMask(d, hn::Eq(surface, onSurface)), leaveSurface, hn::Neg(onBoundary));
             const V oz0 = hn::Sub(oz, vertexZ);
             const V qa = hn::Mul(c, hn::Add(hn::Add(hn::Mul(dx, dx), hn::Mul(dy, dy)), hn::Mul(hn::Mul(k1, dz), dz)));
@@ -140,18 +147,63 @@ void SearchPhotons(const detail::PhotonSearchConstants& k, detail::PhotonSearchL
             const M branch1 = hn::Gt(hn::Sub(one, hn::Mul(ck, hn::Add(oz0, hn::Mul(t1, dz)))), zero);
             const M ok0 = hn::And(roots, hn::And(hn::Not(hn::Le(t0, tMin)), branch0));
             const M ok1 = hn::And(roots, hn::And(hn::Not(hn::Le(t1, tMin)), branch1));
+            V tA = hn::IfThenElse(ok0, t0, t1);
+            M hit = hn::Or(ok0, ok1);
+            // A far root beyond the first crossing (for an asphere, any further crossing) is left
+            // to trace() below.
+            M further = hn::And(ok0, ok1);
+            const M polynomial = hn::And(active, hn::Ne(hn::GatherIndex(d, k.polynomial, surface), zero));
+            if (!hn::AllFalse(d, polynomial)) {
+                // intersect()'s Newton on F(t) = z(t) − sag(r²(t)), from the conic hit (or the
+                // vertex plane), each lane stopping where intersect() returns.
+                const V kc2 = hn::GatherIndex(d, k.newtonConicFactor, surface);
+                const V halfC = hn::Mul(hn::Set(d, 0.5), c);
+                V t = hn::IfThenElse(hit, tA, hn::IfThenElse(hn::Ne(dz, zero), hn::Div(hn::Neg(oz0), dz), zero));
+                M running = polynomial, failed = hn::FirstN(d, 0);
+                for (int iteration = 0; iteration < kMaxNewtonIterations && !hn::AllFalse(d, running); ++iteration) {
+                    const V px = hn::Add(ox, hn::Mul(t, dx)), py = hn::Add(oy, hn::Mul(t, dy));
+                    const V pz = hn::Add(oz0, hn::Mul(t, dz));
+                    const V r2 = hn::Add(hn::Mul(px, px), hn::Mul(py, py));
+                    const V q = hn::Sub(one, hn::Mul(kc2, r2));
+                    const M outside = hn::And(running, hn::Lt(q, zero));
+                    failed = hn::Or(failed, outside);
+                    running = hn::AndNot(outside, running);
+                    const V root = hn::Sqrt(q);
+                    V sag = hn::Div(hn::Mul(c, r2), hn::Add(one, root));
+                    V slope = hn::IfThenElse(hn::Gt(q, zero), hn::Div(halfC, root), zero);
+                    V power = r2;
+                    for (int m = 0; m < kAsphereTerms; ++m) {
+                        slope = hn::Add(slope, hn::Mul(hn::GatherIndex(d, k.slopeCoefficient[m], surface), power));
+                        power = hn::Mul(power, r2);
+                        sag = hn::Add(sag, hn::Mul(hn::GatherIndex(d, k.asphere[m], surface), power));
+                    }
+                    const V f = hn::Sub(pz, sag);
+                    const V df = hn::Sub(dz, hn::Mul(hn::Mul(two, slope), hn::Add(hn::Mul(px, dx), hn::Mul(py, dy))));
+                    const M flat = hn::And(running, hn::Or(hn::Eq(df, zero), hn::Not(hn::IsFinite(df))));
+                    failed = hn::Or(failed, flat);
+                    running = hn::AndNot(flat, running);
+                    const V step = hn::Div(f, df);
+                    t = hn::IfThenElse(running, hn::Sub(t, step), t);
+                    const M converged = hn::And(running, hn::Lt(hn::Abs(step), hn::Mul(hn::Set(d, 1e-12), hn::Add(one, hn::Abs(t)))));
+                    running = hn::AndNot(converged, running);
+                }
+                failed = hn::Or(failed, running);  // out of iterations
+                const M newtonHit = hn::AndNot(failed, hn::AndNot(hn::Le(t, tMin), polynomial));
+                tA = hn::IfThenElse(polynomial, t, tA);
+                hit = hn::Or(hn::AndNot(polynomial, hit), newtonHit);  // (newtonHit lies within polynomial)
+                further = hn::Or(further, polynomial);
+            }
             // The first crossing, if nearer than the best so far.
-            const V tA = hn::IfThenElse(ok0, t0, t1);
-            const M first = hn::And(hn::Or(ok0, ok1), hn::Lt(tA, best));
+            const M first = hn::And(hit, hn::Lt(tA, best));
             // A hit where the photon stands needs the normal to tell whether it leaves the cell.
             const M clear = hn::Ge(tA, onBoundary);
             leave = hn::Or(leave, hn::AndNot(clear, first));
             const V ax = hn::Add(ox, hn::Mul(tA, dx)), ay = hn::Add(oy, hn::Mul(tA, dy));
             const M withinA = hn::Le(hn::Add(hn::Mul(ax, ax), hn::Mul(ay, ay)), rim);
             const M acceptA = hn::And(hn::And(first, clear), withinA);
-            // Beyond the rim, trace() looks for a second crossing, the far root: rare enough
-            // (a steep ray near the wall) to leave to it whenever the far root may be one.
-            leave = hn::Or(leave, hn::AndNot(withinA, hn::And(hn::And(first, clear), hn::And(ok0, ok1))));
+            // Beyond the rim, trace() looks for a further crossing: rare enough (a steep ray near
+            // the wall) to leave to it whenever there may be one.
+            leave = hn::Or(leave, hn::AndNot(withinA, hn::And(hn::And(first, clear), further)));
             best = hn::IfThenElse(acceptA, tA, best);
             kind = hn::IfThenElse(acceptA, hn::Set(d, which), kind);
         };
@@ -301,7 +353,15 @@ std::int64_t PhotonTracer::tracePacket(std::span<PacketPhoton> photons, std::spa
         constants.rimOuter2Mm2[s] = rims_[s].extentMm * rims_[s].extentMm * (1.0 + 1e-9);
         constants.rimInner2Mm2[s] = rims_[s].extentMm * rims_[s].extentMm * (1.0 - 1e-9);
         constants.rimZMm[s] = rims_[s].zMm;
-        constants.inLanes[s] = surface.hasPolynomial() ? 0.0 : 1.0;
+        if (surface.hasPolynomial()) {
+            const double c = surface.curvature();
+            constants.polynomial[s] = 1.0;
+            constants.newtonConicFactor[s] = (1.0 + surface.conic) * c * c;
+            for (int m = 0; m < kAsphereTerms; ++m) {
+                constants.asphere[m][s] = surface.asphere[m];
+                constants.slopeCoefficient[m][s] = (m + 2) * surface.asphere[m];
+            }
+        }
         constants.plane[s] = surface.isPlane() ? 1.0 : 0.0;
         constants.radiusMm[s] = surface.radiusMm;
         constants.centreZMm[s] = surface.vertexZMm + surface.radiusMm;

@@ -213,10 +213,10 @@ public:
     // Traces photons[i] into histories[i] exactly as trace(*indices, ray, rng, history, scratch)
     // would, to the last bit, each drawing from its own generator (which is left where trace would
     // leave it). The stretches of the walks between interfaces are traced together in SIMD lanes
-    // (PhotonPacket.cpp): the search for the next boundary on every instruction set, each photon's
-    // reflection or refraction at a clean optical surface in turn; at any other event (a wall, the
-    // iris blades, a retaining ring, the sensor, dust, grease, a bulk medium, an asphere, a seam
-    // or a bounce limit) the photon leaves the lanes and trace()'s own loop goes on from there.
+    // (PhotonPacket.cpp): the search for the next boundary, and the reflection or refraction at
+    // a clean sphere or plane; at any other event (a wall, a retaining ring, the sensor, dust,
+    // grease, a bulk medium, blades that scatter, a seam, a bounce limit) the photon leaves the
+    // lanes and trace()'s own loop goes on from there.
     // Returns how many events the lanes traced (the rest of the histories' events were trace()'s).
     std::int64_t tracePacket(std::span<PacketPhoton> photons, std::span<PhotonHistory> histories,
                              Scratch& scratch) const;

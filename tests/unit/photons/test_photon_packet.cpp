@@ -3,8 +3,9 @@
 // reflections, arrivals (positions, weights, paths), deposits, and the generator left in the same
 // state. The photons come from many directions and wavelengths, so that they end in every way the
 // lanes hand over (walls, rings, the iris blades, the sensor, escape) and some are trapped; the
-// lenses cover spheres (the double Gauss), aspheres (the zoom, which its lanes leave to trace()),
-// a fisheye's steep surfaces, dust and grease, bulk media, stray light sampling and a bounce limit.
+// lenses cover spheres (the double Gauss), aspheres (the zoom: intersect()'s Newton iteration in
+// the lanes), a fisheye's steep surfaces, dust and grease, bulk media, stray light sampling, a
+// bounce limit, a black interior and a strongly reflecting coating.
 #include <cmath>
 #include <cstdint>
 #include <numbers>
@@ -176,7 +177,7 @@ TEST(PhotonPacket, EqualsTraceOnAspheresAndSteepSurfaces) {
         const LensSystem lens = test::loadLens(name);
         const PhotonTracer tracer(lens, greyInterior());
         const Outcome o = compareWalks(tracer, 3000, 12);
-        EXPECT_GT(o.laneEvents, 0);
+        EXPECT_GT(o.laneEvents, o.events / 3);  // the zoom's aspheres in the lanes too
         EXPECT_GT(o.arrivals, 10);
     }
 }
