@@ -46,8 +46,7 @@ double interfaceReflectanceBound(const LensSystem& lens, const SpectralIndices& 
     const double nAir = airBefore ? nBefore : nAfter;
     const double nGlass = airBefore ? nAfter : nBefore;
     const double bound = thinFilmReflectanceBound(*coating, cosThetaI, nAir, nGlass, fromAirSide);
-    // Both the bound and the exact response are within a few ulps; this margin is far wider.
-    return bound >= 1.0 ? 1.0 : bound * (1.0 + 1e-9) + 1e-12;
+    return bound >= 1.0 ? 1.0 : bound * (1.0 + kReflectanceBoundMargin) + kReflectanceBoundFloor;
 }
 
 namespace {

@@ -71,7 +71,10 @@ TraceResult tracePath(const LensSystem& lens, const SpectralIndices& indices, co
 FresnelTerms interfaceResponse(const LensSystem& lens, const SpectralIndices& indices, int k,
                                int direction, double cosThetaI);
 // An upper bound on interfaceResponse(...).reflectance() (thinFilmReflectanceBound), with the
-// rounding of both sides allowed for: 1 where there is none (uncoated, several layers, ideal).
+// rounding of both sides allowed for: bound · (1 + kReflectanceBoundMargin) +
+// kReflectanceBoundFloor (both the bound and the response are within a few ulps; the margin is
+// far wider). 1 where there is none (uncoated, several layers, ideal).
+inline constexpr double kReflectanceBoundMargin = 1e-9, kReflectanceBoundFloor = 1e-12;
 double interfaceReflectanceBound(const LensSystem& lens, const SpectralIndices& indices, int k, int direction,
                                  double cosThetaI);
 

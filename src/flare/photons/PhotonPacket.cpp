@@ -107,7 +107,7 @@ void SearchPhotons(const detail::PhotonSearchConstants& k, detail::PhotonSearchL
     using M = hn::Mask<decltype(d)>;
     const V zero = hn::Zero(d), one = hn::Set(d, 1.0), two = hn::Set(d, 2.0);
     const V inf = hn::Set(d, std::numeric_limits<double>::infinity());
-    const V onBoundary = hn::Set(d, 1e-9), leaveSurface = hn::Set(d, 1e-6);
+    const V onBoundary = hn::Set(d, kOnBoundaryMm), leaveSurface = hn::Set(d, kLeaveSurfaceMm);
     const auto lastSurface = hn::Set(di, static_cast<std::int64_t>(k.surfaces - 1));
     const auto surfaceCount = hn::Set(di, static_cast<std::int64_t>(k.surfaces));
 
@@ -293,7 +293,8 @@ void MeetSurfaces(const detail::PhotonSearchConstants& k, detail::PhotonSearchLa
         V bound = hn::Mul(g, g);
         const M none = hn::Or(hn::Or(hn::Eq(film, zero), hn::Eq(cc, zero)), hn::Ge(sin2Sub, one));
         bound = hn::IfThenElse(hn::Or(none, hn::Ge(bound, one)), one,
-                               hn::Add(hn::Mul(bound, hn::Set(d, 1.0 + 1e-9)), hn::Set(d, 1e-12)));
+                               hn::Add(hn::Mul(bound, hn::Set(d, 1.0 + kReflectanceBoundMargin)),
+                                       hn::Set(d, kReflectanceBoundFloor)));
         const M certain = hn::Ge(hn::Load(d, b.u + i), bound);
         hn::Store(hn::IfThenElseZero(certain, one), d, b.certain + i);
 
@@ -350,8 +351,8 @@ std::int64_t PhotonTracer::tracePacket(std::span<PacketPhoton> photons, std::spa
         constants.curvaturePerMm[s] = surface.curvature();
         constants.conicFactor[s] = 1.0 + surface.conic;
         constants.branchFactor[s] = constants.curvaturePerMm[s] * constants.conicFactor[s];
-        constants.rimOuter2Mm2[s] = rims_[s].extentMm * rims_[s].extentMm * (1.0 + 1e-9);
-        constants.rimInner2Mm2[s] = rims_[s].extentMm * rims_[s].extentMm * (1.0 - 1e-9);
+        constants.rimOuter2Mm2[s] = rims_[s].extentMm * rims_[s].extentMm * (1.0 + kSeamTolerance);
+        constants.rimInner2Mm2[s] = rims_[s].extentMm * rims_[s].extentMm * (1.0 - kSeamTolerance);
         constants.rimZMm[s] = rims_[s].zMm;
         if (surface.hasPolynomial()) {
             const double c = surface.curvature();
@@ -371,7 +372,7 @@ std::int64_t PhotonTracer::tracePacket(std::span<PacketPhoton> photons, std::spa
     for (int g = 0; g <= n; ++g) {
         const double wall = cells_[g].wallRadiusMm;
         constants.wall2Mm2[g] = wall * wall;
-        constants.wallOuter2Mm2[g] = wall * wall * (1.0 + 1e-9);
+        constants.wallOuter2Mm2[g] = wall * wall * (1.0 + kSeamTolerance);
         constants.hasMedium[g] = mediumOfCell_[g] >= 0 ? 1.0 : 0.0;
     }
 
@@ -464,7 +465,7 @@ std::int64_t PhotonTracer::tracePacket(std::span<PacketPhoton> photons, std::spa
             }
             if ((!surface.isStop && p.x * p.x + p.y * p.y > surface.semiApertureMm * surface.semiApertureMm) ||
                 (!surface.isStop && !equalMedia && hasContamination_ && contamination_[s].any())) {
-                handOver(j);  // the blades, a retaining ring, dust or grease
+                handOver(j);  // a retaining ring, dust or grease
                 continue;
             }
             leaves[j] = false;
@@ -511,13 +512,7 @@ std::int64_t PhotonTracer::tracePacket(std::span<PacketPhoton> photons, std::spa
                     ray.direction = reflected ? glm::normalize(reflect(ray.direction, normal)) : refracted;
                 }
                 if (reflected) {
-                    const int count = w.reflections++;
-                    if (w.key == kLongPathKey || count >= kPathKeyMaxReflections) {
-                        w.key = kLongPathKey;
-                    } else {
-                        const PathKey low = w.key & ((PathKey{1} << 56) - 1);
-                        w.key = (static_cast<PathKey>(count + 1) << 56) | low | (static_cast<PathKey>(s & 0xff) << (8 * count));
-                    }
+                    w.key = withReflection(w.key, w.reflections++, s);
                 } else {
                     if (s == 0 && direction > 0) w.entered = true;
                     b.cell[j] = direction > 0 ? s + 1 : s;

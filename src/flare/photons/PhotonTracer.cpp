@@ -17,6 +17,12 @@
 
 namespace flare {
 
+PathKey withReflection(PathKey key, int count, int surface) {
+    if (key == kLongPathKey || count >= kPathKeyMaxReflections) return kLongPathKey;
+    const PathKey low = key & ((PathKey{1} << 56) - 1);
+    return (static_cast<PathKey>(count + 1) << 56) | low | (static_cast<PathKey>(surface & 0xff) << (8 * count));
+}
+
 PathKey pathKey(const std::vector<int>& reflections) {
     if (reflections.size() > kPathKeyMaxReflections) return kLongPathKey;
     PathKey key = static_cast<PathKey>(reflections.size()) << 56;
@@ -58,18 +64,6 @@ const char* toString(ScatterSource source) {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-// A photon that has just left a surface starts on it up to rounding (~1e-14 mm, more at grazing
-// incidence): the surface it stands on is not met again within kLeaveSurfaceMm.
-constexpr double kLeaveSurfaceMm = 1e-6;
-// Every other boundary may lie right where the photon stands: the next surface where two vertices
-// coincide (a zero-thickness cell), or a wall or annulus at the seam where a surface's rim meets
-// it. A boundary within this distance of the photon (ahead of it or, through rounding, behind it)
-// is met at once (at t = 0) if the photon moves through it out of its cell, and ignored otherwise.
-constexpr double kOnBoundaryMm = 1e-9;
-// Where two boundaries of a cell meet (a surface's rim and its annulus, an annulus and the wall),
-// both accept points within this relative tolerance of the seam, so that rounding cannot let a
-// photon slip between them and out of the cell.
-constexpr double kSeamTolerance = 1e-9;
 
 // Exit distance of a ray inside the cylinder x² + y² = R² (kInf if it runs parallel to the axis).
 // A ray that starts outside it (by rounding: at the seam of a surface's rim and the wall) and does
@@ -185,13 +179,7 @@ void PhotonTracer::traceFrom(const SpectralIndices& indices, const WalkStart& st
     // Appends a specular reflection at `surface` (n: the sensor); false if the limit stops it.
     auto addReflection = [&](int surface) {
         if (maxBounces_ >= 0 && h.reflections >= maxBounces_) return false;
-        const int count = h.reflections++;
-        if (key == kLongPathKey || count >= kPathKeyMaxReflections) {
-            key = kLongPathKey;
-        } else {
-            const PathKey low = key & ((PathKey{1} << 56) - 1);
-            key = (static_cast<PathKey>(count + 1) << 56) | low | (static_cast<PathKey>(surface & 0xff) << (8 * count));
-        }
+        key = withReflection(key, h.reflections++, surface);
         return true;
     };
     // Stray light sampling (StrayLightSampling): the photon's weight while it stays above the floor.

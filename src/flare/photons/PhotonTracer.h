@@ -101,6 +101,22 @@ using PathKey = std::uint64_t;
 inline constexpr int kPathKeyMaxReflections = 7;
 inline constexpr PathKey kLongPathKey = ~PathKey{0};
 PathKey pathKey(const std::vector<int>& reflections);
+// The key after one more reflection, at `surface`, of a path that has made `count` so far.
+PathKey withReflection(PathKey key, int count, int surface);
+
+// The photon tracer's tolerances (trace() and its packets):
+// A photon that has just left a surface starts on it up to rounding (~1e-14 mm, more at grazing
+// incidence): the surface it stands on is not met again within kLeaveSurfaceMm.
+inline constexpr double kLeaveSurfaceMm = 1e-6;
+// Every other boundary may lie right where the photon stands: the next surface where two vertices
+// coincide (a zero-thickness cell), or a wall or annulus at the seam where a surface's rim meets
+// it. A boundary within this distance of the photon (ahead of it or, through rounding, behind it)
+// is met at once (at t = 0) if the photon moves through it out of its cell, and ignored otherwise.
+inline constexpr double kOnBoundaryMm = 1e-9;
+// Where two boundaries of a cell meet (a surface's rim and its annulus, an annulus and the wall),
+// both accept points within this relative tolerance of the seam, so that rounding cannot let a
+// photon slip between them and out of the cell.
+inline constexpr double kSeamTolerance = 1e-9;
 
 enum class PhotonFate : std::uint8_t {
     Escaped,          // left through the front (or never entered the lens)
