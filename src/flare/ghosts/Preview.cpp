@@ -96,7 +96,8 @@ Primitive triangle(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c
 // value at its first column and subtracts it after its last, so that it costs the same whatever its
 // length (the ghosts of a preview cover much of the frame, wavelength after wavelength). The sums
 // run in double, and a count of the spans open at each column restarts them at exactly zero where
-// none is, so that no rounding residue leaks past a ghost's edge.
+// none is, so that no rounding residue leaks past a ghost's edge; where some are still open, a
+// residue below zero is clamped (the values are never negative).
 class BandAccumulator {
 public:
     BandAccumulator(int width, int rows)
@@ -140,9 +141,11 @@ public:
                 if (spans == 0) {
                     sum[0] = sum[1] = sum[2] = 0.0;
                 } else {
+                    // Every span's value is non-negative, so a negative sum is the rounding of
+                    // a larger span that closed here (about 1e-16 of it): zero.
                     for (int c = 0; c < 3; ++c) {
                         sum[c] += column->difference[c];
-                        q[c] += static_cast<float>(sum[c]);
+                        q[c] += static_cast<float>(std::max(sum[c], 0.0));
                     }
                 }
                 *column = Column{};
