@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstddef>
 #include <limits>
+#include <utility>
 
 #include "flare/optics/Fresnel.h"
 
@@ -57,6 +58,8 @@ inline double fateCode(int step, TraceStatus status) { return 1.0 + static_cast<
 #define HWY_TARGET_INCLUDE "flare/optics/PacketTracer.cpp"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 #include <hwy/highway.h>
+
+#include "flare/optics/AsphereNewton-inl.h"
 
 HWY_BEFORE_NAMESPACE();
 namespace flare {
@@ -129,39 +132,12 @@ template <class V, class M, class Fail>
 HWY_INLINE V NewtonAsphere(const detail::PacketStep& s, M alive, M conicHit, V ox, V oy, V oz0, V dx, V dy, V dz, V t,
                            Fail& fail) {
     const hn::DFromV<V> d;
-    const V zero = hn::Zero(d), one = hn::Set(d, 1.0), two = hn::Set(d, 2.0);
     const V c = hn::Set(d, s.curvaturePerMm), kc2 = hn::Set(d, s.conicFactor * s.curvaturePerMm * s.curvaturePerMm);
-    const V plane = hn::IfThenElse(hn::Ne(dz, zero), hn::Div(hn::Neg(oz0), dz), zero);
-    t = hn::IfThenElse(conicHit, t, plane);
-    M running = alive, diverged = hn::FirstN(d, 0);
-    for (int iteration = 0; iteration < kMaxNewtonIterations && !hn::AllFalse(d, running); ++iteration) {
-        const V px = hn::Add(ox, hn::Mul(t, dx)), py = hn::Add(oy, hn::Mul(t, dy)), pz = hn::Add(oz0, hn::Mul(t, dz));
-        const V r2 = hn::Add(hn::Mul(px, px), hn::Mul(py, py));
-        const V q = hn::Sub(one, hn::Mul(kc2, r2));
-        const M outside = hn::And(running, hn::Lt(q, zero));
-        diverged = hn::Or(diverged, outside);
-        running = hn::AndNot(outside, running);
-        const V root = hn::Sqrt(q);
-        V sag = hn::Div(hn::Mul(c, r2), hn::Add(one, root));
-        V slope = hn::IfThenElse(hn::Gt(q, zero), hn::Div(hn::Set(d, 0.5 * s.curvaturePerMm), root), zero);
-        V power = r2;
-        for (int m = 0; m < kAsphereTerms; ++m) {
-            slope = hn::Add(slope, hn::Mul(hn::Set(d, s.slopeCoefficient[m]), power));
-            power = hn::Mul(power, r2);
-            sag = hn::Add(sag, hn::Mul(hn::Set(d, s.asphere[m]), power));
-        }
-        const V f = hn::Sub(pz, sag);
-        const V df = hn::Sub(dz, hn::Mul(hn::Mul(two, slope), hn::Add(hn::Mul(px, dx), hn::Mul(py, dy))));
-        const M flat = hn::And(running, hn::Or(hn::Eq(df, zero), hn::Not(hn::IsFinite(df))));
-        diverged = hn::Or(diverged, flat);
-        running = hn::AndNot(flat, running);
-        const V step = hn::Div(f, df);
-        t = hn::IfThenElse(running, hn::Sub(t, step), t);
-        const M converged = hn::And(running, hn::Lt(hn::Abs(step), hn::Mul(hn::Set(d, 1e-12), hn::Add(one, hn::Abs(t)))));
-        running = hn::AndNot(converged, running);
-    }
-    fail(hn::Or(diverged, running), TraceStatus::NewtonDiverged);  // running: out of iterations
-    fail(hn::Le(t, hn::Set(d, 1e-9)), TraceStatus::Missed);       // (intersect()'s tMin)
+    M failed;
+    t = AsphereNewton(d, alive, conicHit, t, ox, oy, oz0, dx, dy, dz, c, kc2,
+                      [&](int m) { return std::pair{hn::Set(d, s.slopeCoefficient[m]), hn::Set(d, s.asphere[m])}; }, failed);
+    fail(failed, TraceStatus::NewtonDiverged);
+    fail(hn::Le(t, hn::Set(d, 1e-9)), TraceStatus::Missed);  // (intersect()'s tMin)
     return t;
 }
 

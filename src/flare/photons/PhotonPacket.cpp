@@ -25,6 +25,7 @@
 #include <limits>
 #include <memory>
 #include <span>
+#include <utility>
 
 #include <glm/geometric.hpp>
 
@@ -93,52 +94,26 @@ struct PhotonSearchLanes {
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 #include <hwy/highway.h>
 
+#include "flare/optics/AsphereNewton-inl.h"
+
 HWY_BEFORE_NAMESPACE();
 namespace flare {
 namespace HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
-// intersect()'s Newton on F(t) = z(t) − sag(r²(t)) for the lanes of `polynomial` (an asphere),
-// from the conic hit where there is one (else the vertex plane), each lane stopping where
-// intersect() returns: the converged t, NaN where it diverges or runs out of iterations. Out of
-// line, so that the lanes of a lens without aspheres keep their registers.
+// intersect()'s Newton iteration (AsphereNewton) for the lanes of `polynomial`, each with its own
+// surface's coefficients: the converged t, NaN where it fails. Out of line, so that the lanes of
+// a lens without aspheres keep their registers.
 template <class D, class V = hn::Vec<D>, class VI, class M>
 HWY_NOINLINE V NewtonLanes(const detail::PhotonSearchConstants& k, VI surface, M polynomial, M conicHit, V tConic, V ox, V oy,
                            V oz0, V dx, V dy, V dz, V c) {
     const D d;
-    const V zero = hn::Zero(d), one = hn::Set(d, 1.0), two = hn::Set(d, 2.0);
-    const V kc2 = hn::GatherIndex(d, k.newtonConicFactor, surface);
-    const V halfC = hn::Mul(hn::Set(d, 0.5), c);
-    V t = hn::IfThenElse(conicHit, tConic, hn::IfThenElse(hn::Ne(dz, zero), hn::Div(hn::Neg(oz0), dz), zero));
-    M running = polynomial, failed = hn::FirstN(d, 0);
-    for (int iteration = 0; iteration < kMaxNewtonIterations && !hn::AllFalse(d, running); ++iteration) {
-        const V px = hn::Add(ox, hn::Mul(t, dx)), py = hn::Add(oy, hn::Mul(t, dy));
-        const V pz = hn::Add(oz0, hn::Mul(t, dz));
-        const V r2 = hn::Add(hn::Mul(px, px), hn::Mul(py, py));
-        const V q = hn::Sub(one, hn::Mul(kc2, r2));
-        const M outside = hn::And(running, hn::Lt(q, zero));
-        failed = hn::Or(failed, outside);
-        running = hn::AndNot(outside, running);
-        const V root = hn::Sqrt(q);
-        V sag = hn::Div(hn::Mul(c, r2), hn::Add(one, root));
-        V slope = hn::IfThenElse(hn::Gt(q, zero), hn::Div(halfC, root), zero);
-        V power = r2;
-        for (int m = 0; m < kAsphereTerms; ++m) {
-            slope = hn::Add(slope, hn::Mul(hn::GatherIndex(d, k.slopeCoefficient[m], surface), power));
-            power = hn::Mul(power, r2);
-            sag = hn::Add(sag, hn::Mul(hn::GatherIndex(d, k.asphere[m], surface), power));
-        }
-        const V f = hn::Sub(pz, sag);
-        const V df = hn::Sub(dz, hn::Mul(hn::Mul(two, slope), hn::Add(hn::Mul(px, dx), hn::Mul(py, dy))));
-        const M flat = hn::And(running, hn::Or(hn::Eq(df, zero), hn::Not(hn::IsFinite(df))));
-        failed = hn::Or(failed, flat);
-        running = hn::AndNot(flat, running);
-        const V step = hn::Div(f, df);
-        t = hn::IfThenElse(running, hn::Sub(t, step), t);
-        const M converged = hn::And(running, hn::Lt(hn::Abs(step), hn::Mul(hn::Set(d, 1e-12), hn::Add(one, hn::Abs(t)))));
-        running = hn::AndNot(converged, running);
-    }
-    failed = hn::Or(failed, running);  // out of iterations
+    M failed;
+    const V t = AsphereNewton(d, polynomial, conicHit, tConic, ox, oy, oz0, dx, dy, dz, c,
+                              hn::GatherIndex(d, k.newtonConicFactor, surface), [&](int m) {
+                                  return std::pair{hn::GatherIndex(d, k.slopeCoefficient[m], surface),
+                                                   hn::GatherIndex(d, k.asphere[m], surface)};
+                              }, failed);
     return hn::IfThenElse(failed, hn::Set(d, std::numeric_limits<double>::quiet_NaN()), t);
 }
 
