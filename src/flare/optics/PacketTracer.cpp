@@ -59,7 +59,7 @@ inline double fateCode(int step, TraceStatus status) { return 1.0 + static_cast<
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 #include <hwy/highway.h>
 
-#include "flare/optics/AsphereNewton-inl.h"
+#include "flare/optics/ConicLanes-inl.h"
 
 HWY_BEFORE_NAMESPACE();
 namespace flare {
@@ -216,23 +216,10 @@ detail::PacketStepResult AdvancePacket(const detail::PacketStep& s, int step, de
             // intersectConic in vertex-local coordinates (x and y are unchanged by the shift).
             const V c = hn::Set(d, s.curvaturePerMm), k1 = hn::Set(d, s.conicFactor);
             const V oz0 = hn::Sub(oz, hn::Set(d, s.vertexZMm));
-            const V qa = hn::Mul(c, hn::Add(hn::Add(hn::Mul(dx, dx), hn::Mul(dy, dy)), hn::Mul(hn::Mul(k1, dz), dz)));
-            const V qb = hn::Sub(hn::Mul(c, hn::Add(hn::Add(hn::Mul(ox, dx), hn::Mul(oy, dy)), hn::Mul(hn::Mul(k1, oz0), dz))), dz);
-            const V qc = hn::Sub(hn::Mul(c, hn::Add(hn::Add(hn::Mul(ox, ox), hn::Mul(oy, oy)), hn::Mul(hn::Mul(k1, oz0), oz0))),
-                                 hn::Mul(two, oz0));
-            defer(hn::Gt(hn::Abs(hn::Mul(c, qc)), hn::Set(d, kConicFarOrigin * kConicFarOrigin)));
-            // solveQuadratic: the linear case (a = 0) and the cancellation-free roots.
-            const M linear = hn::Eq(qa, zero);
-            // Only a plane (or a ray along a conic's axis at its vertex) is linear: skip the division.
-            const V tLinear = hn::AllFalse(d, linear) ? zero : hn::Div(hn::Neg(qc), hn::Mul(two, qb));
-            const V disc = hn::Sub(hn::Mul(qb, qb), hn::Mul(qa, qc));
-            const V q = hn::Neg(hn::Add(qb, hn::CopySign(hn::Sqrt(disc), qb)));
-            const V r0 = hn::Div(q, qa);
-            const V r1 = hn::IfThenElse(hn::Ne(q, zero), hn::Div(qc, q), r0);
-            const M swap = hn::Gt(r0, r1);
-            const V t0 = hn::IfThenElse(linear, tLinear, hn::IfThenElse(swap, r1, r0));
-            const V t1 = hn::IfThenElse(linear, tLinear, hn::IfThenElse(swap, r0, r1));
-            const M roots = hn::Or(hn::And(linear, hn::Ne(qb, zero)), hn::AndNot(linear, hn::Not(hn::Lt(disc, zero))));
+            const auto conic = ConicQuadratic(d, c, k1, ox, oy, oz0, dx, dy, dz);
+            defer(hn::Gt(hn::Abs(hn::Mul(c, conic.qc)), hn::Set(d, kConicFarOrigin * kConicFarOrigin)));
+            const V t0 = conic.t0, t1 = conic.t1;
+            const M roots = conic.roots;
             // The first root beyond tMin on the vertex branch (1 − c k z > 0).
             const V tMin = hn::Set(d, 1e-9), ck = hn::Set(d, s.curvaturePerMm * s.conicFactor);
             const M ok0 = hn::And(hn::Not(hn::Le(t0, tMin)), hn::Gt(hn::Sub(one, hn::Mul(ck, hn::Add(oz0, hn::Mul(t0, dz)))), zero));

@@ -94,7 +94,7 @@ struct PhotonSearchLanes {
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 #include <hwy/highway.h>
 
-#include "flare/optics/AsphereNewton-inl.h"
+#include "flare/optics/ConicLanes-inl.h"
 
 HWY_BEFORE_NAMESPACE();
 namespace flare {
@@ -125,7 +125,7 @@ void SearchPhotons(const detail::PhotonSearchConstants& k, detail::PhotonSearchL
     const hn::RebindToSigned<decltype(d)> di;
     using V = hn::Vec<decltype(d)>;
     using M = hn::Mask<decltype(d)>;
-    const V zero = hn::Zero(d), one = hn::Set(d, 1.0), two = hn::Set(d, 2.0);
+    const V zero = hn::Zero(d), one = hn::Set(d, 1.0);
     const V inf = hn::Set(d, std::numeric_limits<double>::infinity());
     const V onBoundary = hn::Set(d, kOnBoundaryMm), leaveSurface = hn::Set(d, kLeaveSurfaceMm);
     const auto lastSurface = hn::Set(di, static_cast<std::int64_t>(k.surfaces - 1));
@@ -147,22 +147,10 @@ void SearchPhotons(const detail::PhotonSearchConstants& k, detail::PhotonSearchL
             const V ck = hn::GatherIndex(d, k.branchFactor, surface), rim = hn::GatherIndex(d, k.rimOuter2Mm2, surface);
             const V tMin = hn::IfThenElse(hn::RebindMask(d, hn::Eq(surface, onSurface)), leaveSurface, hn::Neg(onBoundary));
             const V oz0 = hn::Sub(oz, vertexZ);
-            const V qa = hn::Mul(c, hn::Add(hn::Add(hn::Mul(dx, dx), hn::Mul(dy, dy)), hn::Mul(hn::Mul(k1, dz), dz)));
-            const V qb = hn::Sub(hn::Mul(c, hn::Add(hn::Add(hn::Mul(ox, dx), hn::Mul(oy, dy)), hn::Mul(hn::Mul(k1, oz0), dz))), dz);
-            const V qc = hn::Sub(hn::Mul(c, hn::Add(hn::Add(hn::Mul(ox, ox), hn::Mul(oy, oy)), hn::Mul(hn::Mul(k1, oz0), oz0))),
-                                 hn::Mul(two, oz0));
-            leave = hn::Or(leave, hn::And(active, hn::Gt(hn::Abs(hn::Mul(c, qc)), hn::Set(d, kConicFarOrigin * kConicFarOrigin))));
-            // solveQuadratic: the linear case (a plane) and the cancellation-free roots.
-            const M linear = hn::Eq(qa, zero);
-            const V tLinear = hn::AllFalse(d, linear) ? zero : hn::Div(hn::Neg(qc), hn::Mul(two, qb));
-            const V disc = hn::Sub(hn::Mul(qb, qb), hn::Mul(qa, qc));
-            const V q = hn::Neg(hn::Add(qb, hn::CopySign(hn::Sqrt(disc), qb)));
-            const V r0 = hn::Div(q, qa);
-            const V r1 = hn::IfThenElse(hn::Ne(q, zero), hn::Div(qc, q), r0);
-            const M swap = hn::Gt(r0, r1);
-            const V t0 = hn::IfThenElse(linear, tLinear, hn::IfThenElse(swap, r1, r0));
-            const V t1 = hn::IfThenElse(linear, tLinear, hn::IfThenElse(swap, r0, r1));
-            const M roots = hn::And(active, hn::Or(hn::And(linear, hn::Ne(qb, zero)), hn::AndNot(linear, hn::Not(hn::Lt(disc, zero)))));
+            const auto conic = ConicQuadratic(d, c, k1, ox, oy, oz0, dx, dy, dz);
+            leave = hn::Or(leave, hn::And(active, hn::Gt(hn::Abs(hn::Mul(c, conic.qc)), hn::Set(d, kConicFarOrigin * kConicFarOrigin))));
+            const V t0 = conic.t0, t1 = conic.t1;
+            const M roots = hn::And(active, conic.roots);
             const M branch0 = hn::Gt(hn::Sub(one, hn::Mul(ck, hn::Add(oz0, hn::Mul(t0, dz)))), zero);
             const M branch1 = hn::Gt(hn::Sub(one, hn::Mul(ck, hn::Add(oz0, hn::Mul(t1, dz)))), zero);
             const M ok0 = hn::And(roots, hn::And(hn::Not(hn::Le(t0, tMin)), branch0));

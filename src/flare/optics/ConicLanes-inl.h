@@ -1,13 +1,13 @@
-// intersect()'s Newton iteration on an asphere, in SIMD lanes: the one loop of the packet kernels
-// (PacketTracer.cpp, whose steps hold one surface, and PhotonPacket.cpp, whose lanes each meet
-// their own). Included by those files inside Highway's per-target compilation, so it is compiled
-// once per instruction set with their flags (no fused multiply-adds): a Highway "-inl.h" header,
-// whose include guard toggles with HWY_TARGET_TOGGLE.
-#if defined(FLARE_OPTICS_ASPHERE_NEWTON_INL_H_) == defined(HWY_TARGET_TOGGLE)
-#ifdef FLARE_OPTICS_ASPHERE_NEWTON_INL_H_
-#undef FLARE_OPTICS_ASPHERE_NEWTON_INL_H_
+// intersect() in SIMD lanes: the conic's quadratic and an asphere's Newton iteration, shared by
+// the packet kernels (PacketTracer.cpp, whose steps hold one surface, and PhotonPacket.cpp, whose
+// lanes each meet their own). Included by those files inside Highway's per-target compilation, so
+// it is compiled once per instruction set with their flags (no fused multiply-adds): a Highway
+// "-inl.h" header, whose include guard toggles with HWY_TARGET_TOGGLE.
+#if defined(FLARE_OPTICS_CONIC_LANES_INL_H_) == defined(HWY_TARGET_TOGGLE)
+#ifdef FLARE_OPTICS_CONIC_LANES_INL_H_
+#undef FLARE_OPTICS_CONIC_LANES_INL_H_
 #else
-#define FLARE_OPTICS_ASPHERE_NEWTON_INL_H_
+#define FLARE_OPTICS_CONIC_LANES_INL_H_
 #endif
 
 #include <hwy/highway.h>
@@ -17,6 +17,36 @@
 HWY_BEFORE_NAMESPACE();
 namespace flare {
 namespace HWY_NAMESPACE {
+
+// intersectConic's quadratic c r² − 2z + c(1+k)z² = 0 along the rays, in vertex-local
+// coordinates (x and y unshifted, oz0 = z − vertex), and solveQuadratic's roots t0 ≤ t1 (the
+// cancellation-free form; a plane's single root twice), in their order of operations. `roots`
+// marks the lanes that have any; qc (the conic's value at the origin) is for the far-origin test.
+template <class D, class V = hwy::HWY_NAMESPACE::Vec<D>>
+struct ConicRoots {
+    V qc, t0, t1;
+    hwy::HWY_NAMESPACE::Mask<D> roots;
+};
+template <class D, class V = hwy::HWY_NAMESPACE::Vec<D>>
+HWY_INLINE ConicRoots<D> ConicQuadratic(D d, V c, V k1, V ox, V oy, V oz0, V dx, V dy, V dz) {
+    namespace hn = hwy::HWY_NAMESPACE;
+    const V zero = hn::Zero(d), two = hn::Set(d, 2.0);
+    const V qa = hn::Mul(c, hn::Add(hn::Add(hn::Mul(dx, dx), hn::Mul(dy, dy)), hn::Mul(hn::Mul(k1, dz), dz)));
+    const V qb = hn::Sub(hn::Mul(c, hn::Add(hn::Add(hn::Mul(ox, dx), hn::Mul(oy, dy)), hn::Mul(hn::Mul(k1, oz0), dz))), dz);
+    const V qc = hn::Sub(hn::Mul(c, hn::Add(hn::Add(hn::Mul(ox, ox), hn::Mul(oy, oy)), hn::Mul(hn::Mul(k1, oz0), oz0))),
+                         hn::Mul(two, oz0));
+    const auto linear = hn::Eq(qa, zero);
+    // Only a plane (or a ray along a conic's axis at its vertex) is linear: skip the division.
+    const V tLinear = hn::AllFalse(d, linear) ? zero : hn::Div(hn::Neg(qc), hn::Mul(two, qb));
+    const V disc = hn::Sub(hn::Mul(qb, qb), hn::Mul(qa, qc));
+    const V q = hn::Neg(hn::Add(qb, hn::CopySign(hn::Sqrt(disc), qb)));
+    const V r0 = hn::Div(q, qa);
+    const V r1 = hn::IfThenElse(hn::Ne(q, zero), hn::Div(qc, q), r0);
+    const auto swap = hn::Gt(r0, r1);
+    return {qc, hn::IfThenElse(linear, tLinear, hn::IfThenElse(swap, r1, r0)),
+            hn::IfThenElse(linear, tLinear, hn::IfThenElse(swap, r0, r1)),
+            hn::Or(hn::And(linear, hn::Ne(qb, zero)), hn::AndNot(linear, hn::Not(hn::Lt(disc, zero))))};
+}
 
 // Newton on F(t) = z(t) − sag(r²(t)) for the lanes of `running`, in intersect()'s order of
 // operations: from the conic hit where `conicHit` (tConic), else the vertex plane, at most
@@ -68,4 +98,4 @@ HWY_INLINE V AsphereNewton(D d, M running, M conicHit, V tConic, V ox, V oy, V o
 }  // namespace flare
 HWY_AFTER_NAMESPACE();
 
-#endif  // FLARE_OPTICS_ASPHERE_NEWTON_INL_H_ (per target)
+#endif  // FLARE_OPTICS_CONIC_LANES_INL_H_ (per target)
