@@ -308,17 +308,11 @@ namespace flare {
 HWY_EXPORT(SearchPhotons);
 HWY_EXPORT(MeetSurfaces);
 
-std::int64_t PhotonTracer::tracePacket(std::span<PacketPhoton> photons, std::span<PhotonHistory> histories,
-                                       Scratch& scratch) const {
-    // A bounce limit is checked at every reflection: such studies trace one photon at a time.
-    if (maxBounces_ >= 0) {
-        for (size_t i = 0; i < photons.size(); ++i)
-            trace(*photons[i].indices, photons[i].ray, photons[i].rng, histories[i], scratch);
-        return 0;
-    }
+std::shared_ptr<const detail::PhotonSearchConstants> PhotonTracer::makePacketConstants() const {
     const LensSystem& lens = *lens_;
     const int n = lens.surfaceCount();
-    detail::PhotonSearchConstants constants;
+    auto made = std::make_shared<detail::PhotonSearchConstants>();
+    detail::PhotonSearchConstants& constants = *made;
     constants.surfaces = n;
     constants.sensorZMm = lens.sensorZMm();
     for (int s = 0; s < n; ++s) {
@@ -352,6 +346,19 @@ std::int64_t PhotonTracer::tracePacket(std::span<PacketPhoton> photons, std::spa
         constants.wallOuter2Mm2[g] = wall * wall * (1.0 + kSeamTolerance);
         constants.hasMedium[g] = mediumOfCell_[g] >= 0 ? 1.0 : 0.0;
     }
+    return made;
+}
+
+std::int64_t PhotonTracer::tracePacket(std::span<PacketPhoton> photons, std::span<PhotonHistory> histories,
+                                       Scratch& scratch) const {
+    // A bounce limit is checked at every reflection: such studies trace one photon at a time.
+    if (maxBounces_ >= 0) {
+        for (size_t i = 0; i < photons.size(); ++i)
+            trace(*photons[i].indices, photons[i].ray, photons[i].rng, histories[i], scratch);
+        return 0;
+    }
+    const LensSystem& lens = *lens_;
+    const detail::PhotonSearchConstants& constants = *packetConstants_;
 
     // The walks in flight: their rays and cells in the lanes, the rest here.
     struct Walk {

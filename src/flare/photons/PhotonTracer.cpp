@@ -122,6 +122,7 @@ PhotonTracer::PhotonTracer(const LensSystem& lens, const InteriorMaterials& mate
                                 : s.semiApertureMm;
         rim.zMm = s.vertexZMm + s.profileSagMm(rim.extentMm, rim.extentMm);  // (a conic may end before)
     }
+    packetConstants_ = makePacketConstants();
 }
 
 PhotonTracer::~PhotonTracer() = default;

@@ -36,6 +36,10 @@
 
 namespace flare {
 
+namespace detail {
+struct PhotonSearchConstants;  // PhotonPacket.cpp
+}
+
 // How the lens's inner parts reflect: a Lambertian part (albedo) plus a glossy Phong lobe about the
 // mirror direction (its share and exponent); the rest is absorbed. 0, 0 is perfectly black. A
 // photon that scatters off one of them is marked scattered and lands in the `scatter` layer.
@@ -270,6 +274,9 @@ private:
     };
     void traceFrom(const SpectralIndices& indices, const WalkStart& start, Rng& rng, PhotonHistory& history,
                    Scratch& scratch) const;
+    // The packets' per-surface and per-cell constants, made once with the tracer (PhotonPacket.cpp).
+    std::shared_ptr<const detail::PhotonSearchConstants> makePacketConstants() const;
+    std::shared_ptr<const detail::PhotonSearchConstants> packetConstants_;
     // Whether a photon meeting surface k (direction +1 towards the sensor) at incidence cosine
     // cosThetaI reflects, for its uniform draw u: u < the reflectance (the table's, or the exact
     // response; 1 under total internal reflection).
