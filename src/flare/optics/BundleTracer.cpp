@@ -117,7 +117,8 @@ double InterfaceTables::transmittance(int surface, int direction, double cosThet
 
 BundleTracer::BundleTracer(const LensSystem& lens, const SpectralIndices& indices, std::span<const int> reflections,
                            bool fresnelWeights, const InterfaceTables* tables)
-    : lens_(&lens), indices_(indices), fresnelWeights_(fresnelWeights), tables_(tables) {
+    : lens_(&lens), indices_(indices), reflections_(reflections.begin(), reflections.end()),
+      fresnelWeights_(fresnelWeights), tables_(tables) {
     const int count = lens.surfaceCount();
     const int sensor = count;
     int position = -1, direction = 1;

@@ -123,6 +123,9 @@ public:
 
     const LensSystem& lens() const { return *lens_; }
     double wavelengthNm() const { return indices_.wavelengthNm; }
+    bool fresnelWeights() const { return fresnelWeights_; }
+    // The path's reflections, as given.
+    std::span<const int> reflections() const { return reflections_; }
 
 private:
     friend class PacketTracer;  // runs the same steps in SIMD lanes
@@ -141,6 +144,7 @@ private:
     const LensSystem* lens_;
     SpectralIndices indices_;
     std::vector<Step> steps_;
+    std::vector<int> reflections_;
     bool fresnelWeights_;
     const InterfaceTables* tables_;
 };

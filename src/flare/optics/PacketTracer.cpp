@@ -35,6 +35,8 @@ struct PacketLanes {
     alignas(64) double scalarWeight[kPacketBatch];
     // The step's constraint as StepOutcome::margin (when the step is asked for margins).
     alignas(64) double margin[kPacketBatch];
+    // n1 / n2 of each lane's own wavelength at a refraction (rays at wavelengths of their own).
+    alignas(64) double eta[kPacketBatch];
 };
 
 // Which margins a step writes: none (trace), those BundleTracer::advance gives without margins
@@ -50,6 +52,11 @@ struct PacketStepResult {
 };
 
 inline double fateCode(int step, TraceStatus status) { return 1.0 + static_cast<double>(status) + 8.0 * step; }
+// The status part of a fate that no TraceStatus uses: a ray at a wavelength of its own that a
+// refracting step left to the scalar code, to be traced again by tracePath.
+inline constexpr int kRetraceStatus = 7;
+static_assert(static_cast<int>(TraceStatus::WrongExit) < kRetraceStatus);
+inline double retraceCode(int step) { return 1.0 + kRetraceStatus + 8.0 * step; }
 
 }  // namespace flare::detail
 #endif
@@ -153,8 +160,12 @@ HWY_INLINE V NewtonAsphere(const detail::PacketStep& s, M alive, M conicHit, V o
 //
 // With margins, every ray going into the step gets its StepOutcome::margin in b.margin, the same
 // bits as BundleTracer::applyStep's (deferred rays excepted: the scalar step gives theirs).
+//
+// With `ownIndices` (rays at wavelengths of their own), a refraction takes each lane's n1 / n2
+// from b.eta, and every factor of a laneWeighted step is left to the scalar code (tables hold
+// one wavelength).
 detail::PacketStepResult AdvancePacket(const detail::PacketStep& s, int step, detail::PacketLanes& b, size_t count,
-                                       detail::PacketMargins margins) {
+                                       detail::PacketMargins margins, bool ownIndices) {
     using Kind = detail::PacketStep::Kind;
     const hn::ScalableTag<double> d;
     using V = hn::Vec<decltype(d)>;
@@ -265,6 +276,7 @@ detail::PacketStepResult AdvancePacket(const detail::PacketStep& s, int step, de
         if (s.kind != Kind::Conic) going += hn::CountTrue(d, alive);
     }
     if (s.kind != Kind::Conic) return {left, static_cast<int>(going)};
+    const bool weighted = ownIndices ? s.laneWeighted : s.weighted;
 
     // Pass 2: the normal at the hit, the factor and the reflected or refracted direction.
     for (size_t i = 0; i < count; i += lanes) {
@@ -305,10 +317,10 @@ detail::PacketStepResult AdvancePacket(const detail::PacketStep& s, int step, de
         const V dot = hn::Add(hn::Add(hn::Mul(dx, nx), hn::Mul(dy, ny)), hn::Mul(dz, nz));
         V factor = one;  // the Fresnel/coating factor from the tables
         M tabled = alive;  // the lanes that have it
-        if (s.weighted) {
+        if (weighted) {
             const V cosine = hn::Abs(dot);
             hn::Store(cosine, d, b.cosine + i);
-            if (s.tableValue) {
+            if (s.tableValue && !ownIndices) {
                 // std::clamp(cosine, 0, 1); NaN and the exact zone go to the scalar code.
                 const V c = hn::IfThenElse(hn::Lt(cosine, zero), zero, hn::IfThenElse(hn::Lt(one, cosine), one, cosine));
                 const M exact = hn::And(hn::Ge(c, hn::Set(d, s.tableExactFrom)), hn::Le(c, hn::Set(d, s.tableExactTo)));
@@ -331,9 +343,11 @@ detail::PacketStepResult AdvancePacket(const detail::PacketStep& s, int step, de
             ny = hn::IfThenElse(flip, hn::Neg(ny), ny);
             nz = hn::IfThenElse(flip, hn::Neg(nz), nz);
             cosI = hn::IfThenElse(flip, hn::Neg(cosI), cosI);
-            const V eta = hn::Set(d, s.eta);
+            // (refract()'s eta * eta * max(…): the lane's product is the scalar one's bits.)
+            const V eta = ownIndices ? hn::Load(d, b.eta + i) : hn::Set(d, s.eta);
+            const V eta2 = ownIndices ? hn::Mul(eta, eta) : hn::Set(d, s.eta * s.eta);
             const V sin2I = hn::Sub(one, hn::Mul(cosI, cosI));
-            const V sin2T = hn::Mul(hn::Set(d, s.eta * s.eta), hn::IfThenElse(hn::Lt(zero, sin2I), sin2I, zero));
+            const V sin2T = hn::Mul(eta2, hn::IfThenElse(hn::Lt(zero, sin2I), sin2I, zero));
             const M tir = hn::And(hn::Ge(sin2T, one), alive);
             if (anyMargins) {
                 // The test refract() makes, as a margin: sin²θt − 1 (std::max's operand order).
@@ -359,7 +373,7 @@ detail::PacketStepResult AdvancePacket(const detail::PacketStep& s, int step, de
         hn::Store(hn::IfThenElse(alive, dy, dy0), d, b.dy + i);
         hn::Store(hn::IfThenElse(alive, dz, dz0), d, b.dz + i);
         hn::Store(fate, d, b.fate + i);
-        if (s.weighted) {
+        if (weighted) {
             const V w = hn::Load(d, b.throughput + i);
             hn::Store(hn::IfThenElse(hn::And(alive, tabled), hn::Mul(w, factor), w), d, b.throughput + i);
             const M scalarWeight = hn::AndNot(tabled, alive);
@@ -422,6 +436,7 @@ PacketTracer::PacketTracer(const BundleTracer& path) : path_(path) {
                 s.kind = bs.kind == Kind::Stop ? detail::PacketStep::Kind::Stop : detail::PacketStep::Kind::Conic;
                 s.reflect = bs.kind == Kind::Reflect;
                 s.weighted = bs.kind != Kind::Stop && bs.weighted;
+                s.laneWeighted = bs.kind != Kind::Stop && path_.fresnelWeights_;
                 if (s.weighted && path_.tables_) {
                     const InterfaceTables::Table& t = path_.tables_->table(bs.surface, bs.direction, s.reflect);
                     s.tableValue = t.value.data();
@@ -557,7 +572,8 @@ int PacketTracer::runStep(int step, detail::PacketLanes& b, int active, bool mar
         return 0;
     }
     const detail::PacketStepResult result = HWY_DYNAMIC_DISPATCH(AdvancePacket)(
-        s, step, b, static_cast<size_t>(active), margins ? detail::PacketMargins::All : detail::PacketMargins::None);
+        s, step, b, static_cast<size_t>(active), margins ? detail::PacketMargins::All : detail::PacketMargins::None,
+        false);
     int going = result.going;
     if (result.left & detail::kScalarWeights) scalarWeights(s, b, active);
     if (result.left & detail::kDeferredRays) {
@@ -654,6 +670,102 @@ void PacketTracer::trace(const PupilGrid& grid, std::span<const glm::dvec2> pupi
             active = compactLanes(b, index, active, going, land);
         }
         for (int i = 0; i < active; ++i) land(i);
+    }
+}
+
+int PacketTracer::runStepOwnIndices(int step, detail::PacketLanes& b, int active, const int* index,
+                                    std::span<const SpectralIndices* const> indices) const {
+    using Kind = detail::PacketStep::Kind;
+    const detail::PacketStep& s = steps_[step];
+    // Steps that do not refract or weigh do not depend on the wavelength: runStep's own.
+    if (s.kind != Kind::Conic) return runStep(step, b, active, false);
+    const int k = s.surface;
+    // The lane's n1 and n2 as tracePath takes them.
+    auto media = [&](int i) {
+        const SpectralIndices& n = *indices[index[i]];
+        return s.direction > 0 ? std::pair{n.n[k], n.n[k + 1]} : std::pair{n.n[k + 1], n.n[k]};
+    };
+    if (!s.reflect)
+        for (int i = 0; i < active; ++i) {
+            if (b.fate[i] != 0.0) continue;
+            const auto [n1, n2] = media(i);
+            b.eta[i] = n1 / n2;
+        }
+    const detail::PacketStepResult result =
+        HWY_DYNAMIC_DISPATCH(AdvancePacket)(s, step, b, static_cast<size_t>(active), detail::PacketMargins::None, true);
+    if (result.left & detail::kScalarWeights) {
+        for (int i = 0; i < active; ++i) {
+            if (b.scalarWeight[i] == 0.0) continue;
+            const auto [n1, n2] = media(i);
+            if (!s.reflect && n1 == n2) continue;  // (tracePath weighs no refraction between equal indices)
+            const FresnelTerms f = interfaceResponse(*path_.lens_, *indices[index[i]], k, s.direction, b.cosine[i]);
+            b.throughput[i] *= s.reflect ? f.reflectance() : f.transmittance();
+        }
+    }
+    int going = result.going;
+    if (result.left & detail::kDeferredRays)
+        for (int i = 0; i < active; ++i)
+            if (b.deferred[i] != 0.0) b.fate[i] = detail::retraceCode(step);
+    return going;
+}
+
+void PacketTracer::trace(std::span<const Ray> rays, std::span<const SpectralIndices* const> indices,
+                         std::span<BundleLanding> out) const {
+    constexpr int kLanes = detail::kPacketMaxLanes;
+    detail::PacketLanes b;
+    int index[detail::kPacketBatch];  // the input of each lane, −1 for padding
+    const LensSystem& lens = *path_.lens_;
+    std::vector<int> retrace;
+    for (size_t begin = 0; begin < rays.size(); begin += detail::kPacketBatch) {
+        const int count = static_cast<int>(std::min<size_t>(detail::kPacketBatch, rays.size() - begin));
+        int active = (count + kLanes - 1) / kLanes * kLanes;
+        for (int i = 0; i < active; ++i) {
+            const Ray r = i < count ? rays[begin + i] : Ray{};
+            b.ox[i] = r.originMm.x, b.oy[i] = r.originMm.y, b.oz[i] = r.originMm.z;
+            b.dx[i] = r.direction.x, b.dy[i] = r.direction.y, b.dz[i] = r.direction.z;
+            b.throughput[i] = 1.0;
+            b.fate[i] = i < count ? 0.0 : 1.0;  // padding lanes never run
+            b.eta[i] = 1.0;
+            index[i] = i < count ? static_cast<int>(begin) + i : -1;
+        }
+        auto land = [&](int i) {
+            if (index[i] < 0) return;
+            BundleLanding& o = out[index[i]];
+            o = BundleLanding{};
+            if (b.fate[i] == 0.0) {
+                o.sensorMm = {b.ox[i], b.oy[i]};
+                o.throughput = b.throughput[i];
+                o.status = TraceStatus::Ok;
+                o.surface = lens.surfaceCount();
+                return;
+            }
+            const int code = static_cast<int>(b.fate[i]) - 1;
+            if (code % 8 == detail::kRetraceStatus) {
+                retrace.push_back(index[i]);
+                return;
+            }
+            o.status = static_cast<TraceStatus>(code % 8);
+            o.surface = path_.stepSurface(code / 8);
+        };
+        for (int step = 0; step < static_cast<int>(steps_.size()); ++step) {
+            const int going = runStepOwnIndices(step, b, active, index, indices);
+            active = compactLanes(b, index, active, going, land);
+        }
+        for (int i = 0; i < active; ++i) land(i);
+    }
+    if (retrace.empty()) return;
+    SequentialPath path;
+    path.reflections = path_.reflections();
+    TraceOptions options;
+    options.fresnelWeights = path_.fresnelWeights_;
+    for (const int j : retrace) {
+        const TraceResult r = tracePath(lens, *indices[j], rays[j], path, options);
+        BundleLanding& o = out[j];
+        o = BundleLanding{};
+        o.status = r.status;
+        o.surface = r.surface;
+        o.throughput = r.throughput;
+        if (r.ok()) o.sensorMm = {r.ray.originMm.x, r.ray.originMm.y};
     }
 }
 

@@ -42,6 +42,9 @@ struct PacketStep {
     bool reflect = false;        // Conic: mirror reflection; Sensor: reflect off the sensor
     bool wrongExit = false;      // Sensor: rays reaching it end as WrongExit
     bool weighted = false;       // Conic: multiply by the Fresnel/coating factor
+    // Conic, rays at wavelengths of their own: a factor applies (the path has them); each lane
+    // then decides as tracePath does (a refraction between equal indices has none).
+    bool laneWeighted = false;
     enum class Normal : std::uint8_t { Sphere, Plane, Conic } normal = Normal::Sphere;  // Conic
     bool sensorWeighted = false; // Sensor reflection: multiply by the sensor's reflectance
     bool roundIris = true;       // Stop
@@ -88,6 +91,15 @@ public:
         TraceStatus status = TraceStatus::Ok;
     };
 
+    // tracePath for rays each at a wavelength of its own (the final render's guided photons):
+    // out[i] = the landing of tracePath(lens, *indices[i], rays[i], the path), with its factors if
+    // the path has them, bit for bit. The path's own wavelength and tables are not used: each lane
+    // refracts with its ray's indices and gets its Fresnel/coating factor exactly, one lane at a
+    // time. The rare rays the lanes leave to the scalar code at a refracting surface (an origin
+    // beyond kConicFarOrigin radii of a conic) are traced by tracePath itself.
+    void trace(std::span<const Ray> rays, std::span<const SpectralIndices* const> indices,
+               std::span<BundleLanding> out) const;
+
     // BundleTracer::advance for the steps first..last in turn, for rays all going at `first`,
     // which stay in the vector lanes from step to step: a ray that goes through them all leaves
     // as BundleTracer::advance, step after step, would leave it, to the last bit; one that ends
@@ -108,6 +120,11 @@ private:
     // Step `step` for the going lanes of a batch (its first `active` lanes), with their margins
     // when asked; returns how many are still going.
     int runStep(int step, detail::PacketLanes& b, int active, bool margins) const;
+    // runStep for rays at their own wavelengths: lane i's ray is input index[i] (−1: padding),
+    // whose indices are indices[index[i]]. Rays a refracting step leaves to the scalar code end
+    // with the fate kRetraceStatus (traced again by tracePath).
+    int runStepOwnIndices(int step, detail::PacketLanes& b, int active, const int* index,
+                          std::span<const SpectralIndices* const> indices) const;
 
     BundleTracer path_;
     std::vector<detail::PacketStep> steps_;

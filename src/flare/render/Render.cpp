@@ -20,6 +20,7 @@
 #include "flare/core/Random.h"
 #include "flare/core/ScrambledSobol.h"
 #include "flare/ghosts/GuideMask.h"
+#include "flare/optics/PacketTracer.h"
 #include "flare/optics/SequentialTracer.h"
 #include "flare/photons/LightSampler.h"
 #include "flare/render/GhostBeam.h"
@@ -121,6 +122,8 @@ struct Renderer::Component {
     int light = 0;
     int slot = -1;  // −1: the unguided tracer
     double probability = 0.0;
+    // A guided path's forced sequence in SIMD packets, its photons at their own wavelengths.
+    std::shared_ptr<const PacketTracer> tracer;
 };
 
 constexpr int kScatterSources = static_cast<int>(ScatterSource::Count) - 1;
@@ -510,6 +513,14 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
     }
     double cumulative = 0.0;
     for (const Component& c : components_) componentCdf_.push_back(cumulative += c.probability);
+    // (Its steps do not depend on the wavelength it is built at: each photon refracts at its own.)
+    for (Component& c : components_) {
+        if (c.slot < 0) continue;
+        const LightState& state = lightStates_[c.light];
+        const std::span<const int> reflections =
+            c.slot == 0 ? std::span<const int>() : std::span<const int>(state.report.ghosts[c.slot - 1].path.reflections);
+        c.tracer = std::make_shared<const PacketTracer>(BundleTracer(lens, lens.indicesAt(kLineDNm), reflections, true));
+    }
     if (!componentCdf_.empty()) componentCdf_.back() = 1.0;
     batches_.resize(options.batchesPerPass);
 }
@@ -564,12 +575,25 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
     constexpr size_t kPacketPhotons = 256;
     const std::uint64_t walkSeed = mixBits(options_.seed ^ 0x3a1f5c0de0f7a1c5ull);
     const std::uint64_t walkStream = static_cast<std::uint64_t>(batchIndex) * static_cast<std::uint64_t>(options_.batchPhotons);
+    // Guided photons waiting for their paths' packets (the whole batch's), and what scoring them
+    // needs.
+    struct GuidedPending {
+        int component = 0;
+        double weight = 0.0;  // W
+        glm::dvec3 xyzWeight{0.0};
+    };
     // (Per thread and kept from batch to batch: the histories alone are 400 KB.)
     struct PacketBuffers {
         std::vector<Pending> pending;
         std::vector<SpectralIndices> indices = std::vector<SpectralIndices>(kPacketPhotons);
         std::vector<PhotonTracer::PacketPhoton> packet;
         std::vector<PhotonHistory> histories = std::vector<PhotonHistory>(kPacketPhotons);
+        std::vector<GuidedPending> guided;
+        std::vector<Ray> guidedRays, sortedRays;
+        std::vector<SpectralIndices> guidedIndices;
+        std::vector<const SpectralIndices*> sortedIndices;
+        std::vector<BundleLanding> landings;
+        std::vector<int> start, position;
     };
     static thread_local PacketBuffers buffers;
     std::vector<Pending>& pending = buffers.pending;
@@ -578,6 +602,59 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
     std::vector<PhotonHistory>& histories = buffers.histories;
     pending.clear();
     packet.clear();
+    // Guided photons are traced at the end of the batch, each path's together in SIMD packets
+    // (PacketTracer, each photon at its own wavelength: tracePath's results to the bit), and
+    // scored in the order they were drawn. With dust, grease or media their clear transmittance
+    // draws from the batch's generator in that order, so they are traced one at a time there.
+    const bool guidedInPackets = !clearWeight;
+    std::vector<GuidedPending>& guided = buffers.guided;
+    guided.clear();
+    if (guidedInPackets && buffers.guidedIndices.size() < static_cast<size_t>(options_.batchPhotons))
+        buffers.guidedIndices.resize(static_cast<size_t>(options_.batchPhotons));
+    buffers.guidedRays.clear();
+    auto traceGuided = [&] {
+        const size_t count = guided.size();
+        if (count == 0) return;
+        // A counting sort by path.
+        std::vector<int>& start = buffers.start;
+        std::vector<int>& position = buffers.position;
+        start.assign(components_.size() + 1, 0);
+        for (const GuidedPending& g : guided) ++start[g.component + 1];
+        for (size_t c = 0; c < components_.size(); ++c) start[c + 1] += start[c];
+        position.resize(count);
+        buffers.sortedRays.resize(count);
+        buffers.sortedIndices.resize(count);
+        buffers.landings.resize(count);
+        {
+            std::vector<int> next(start.begin(), start.end() - 1);
+            for (size_t j = 0; j < count; ++j) {
+                const int at = next[guided[j].component]++;
+                position[j] = at;
+                buffers.sortedRays[at] = buffers.guidedRays[j];
+                buffers.sortedIndices[at] = &buffers.guidedIndices[j];
+            }
+        }
+        for (size_t c = 0; c < components_.size(); ++c) {
+            const size_t from = static_cast<size_t>(start[c]), n = static_cast<size_t>(start[c + 1]) - from;
+            if (n == 0) continue;
+            components_[c].tracer->trace(std::span<const Ray>(buffers.sortedRays).subspan(from, n),
+                                         std::span<const SpectralIndices* const>(buffers.sortedIndices).subspan(from, n),
+                                         std::span<BundleLanding>(buffers.landings).subspan(from, n));
+        }
+        for (size_t j = 0; j < count; ++j) {
+            const GuidedPending& g = guided[j];
+            const BundleLanding& landing = buffers.landings[position[j]];
+            if (!landing.ok()) continue;
+            const glm::dvec2& p = landing.sensorMm;
+            if (std::abs(p.x) > halfW || std::abs(p.y) > halfH) continue;
+            const Component& component = components_[g.component];
+            const LightState& light = lightStates_[component.light];
+            score(light.layer[component.slot], light.ghostLayer[component.slot], light.tallyOffset + component.slot, p,
+                  g.xyzWeight * (g.weight * landing.throughput));
+        }
+        guided.clear();
+        buffers.guidedRays.clear();
+    };
     auto tracePending = [&] {
         if (pending.empty()) return;
         tracer_.tracePacket(packet, std::span(histories).first(packet.size()), *scratch);
@@ -648,6 +725,12 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
             const EmittedRay emitted = light.sampler.rayThrough(ab.x, ab.y, uLight1, uLight2);
             const double weight = emitted.powerPerMm2 * mask.areaMm2() / component.probability;
             if (weight == 0.0) continue;
+            if (guidedInPackets) {
+                buffers.guidedIndices[guided.size()] = indices;
+                buffers.guidedRays.push_back(emitted.ray);
+                guided.push_back({static_cast<int>(c), weight, xyzWeight});
+                continue;
+            }
             sequence.reflections = component.slot == 0 ? std::span<const int>(noReflections)
                                                        : std::span<const int>(light.report.ghosts[component.slot - 1].path.reflections);
             pathPoints.clear();
@@ -681,6 +764,7 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
         if (pending.size() == kPacketPhotons) tracePending();
     }
     tracePending();
+    traceGuided();
 }
 
 void Renderer::traceBeam(BeamJob& job) const {

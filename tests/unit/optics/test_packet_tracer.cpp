@@ -186,6 +186,62 @@ TEST(PacketTracer, NonFiniteFarAndEdgeRaysEqualTracePath) {
     });
 }
 
+// Rays at wavelengths of their own (the final render's guided photons) against tracePath with
+// each ray's indices, bit for bit: every shipped lens (the zoom's aspheres, the fisheye, polygonal
+// irises), direct and ghost paths, paths no ray completes, with and without factors; a tracer
+// built at one wavelength traces rays of any. Far origins (left to the scalar code at a conic,
+// so traced again by tracePath) in the last case.
+TEST(PacketTracer, RaysAtTheirOwnWavelengthsEqualTracePath) {
+    forEachTarget([](const std::string& target) {
+        Seen seen;
+        for (const char* file : test::kShippedLenses) {
+            const LensSystem lens = test::loadLens(file);
+            for (const double backOffMm : {0.0, 400.0}) {
+                PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(9.0, 6.0));
+                grid.backOffMm += backOffMm;
+                const std::vector<glm::dvec2> points = test::pupilLattice(grid, backOffMm > 0.0 ? 11 : 23);
+                std::vector<Ray> rays;
+                std::vector<SpectralIndices> indices;
+                for (size_t i = 0; i < points.size(); ++i) {
+                    rays.push_back(grid.ray(points[i].x, points[i].y));
+                    indices.push_back(lens.indicesAt(380.0 + std::fmod(37.3 * static_cast<double>(i), 400.0)));
+                }
+                std::vector<const SpectralIndices*> pointers;
+                for (const SpectralIndices& n : indices) pointers.push_back(&n);
+                std::vector<GhostPath> paths = enumerateGhosts(lens, 2, true);
+                paths.insert(paths.begin(), {GhostPath{}, GhostPath{{2}}, GhostPath{{3, 1, 0}}});
+                for (size_t p = 0; p < paths.size(); p += p < 3 ? 1 : 7) {
+                    for (bool weights : {false, true}) {
+                        const std::string what = target + " " + file + " " + paths[p].label() + (weights ? " weighted" : "") +
+                                                 (backOffMm > 0.0 ? " far" : "");
+                        const PacketTracer tracer(BundleTracer(lens, lens.indicesAt(587.56), paths[p].reflections, weights));
+                        std::vector<BundleLanding> landings(rays.size());
+                        tracer.trace(rays, pointers, landings);
+                        SequentialPath path;
+                        path.reflections = paths[p].reflections;
+                        TraceOptions options;
+                        options.fresnelWeights = weights;
+                        for (size_t i = 0; i < rays.size(); ++i) {
+                            const TraceResult r = tracePath(lens, indices[i], rays[i], path, options);
+                            ASSERT_EQ(landings[i].status, r.status) << what << " ray " << i;
+                            ASSERT_EQ(landings[i].surface, r.surface) << what << " ray " << i;
+                            ASSERT_EQ(landings[i].throughput, r.throughput) << what << " ray " << i;
+                            seen.add(r.status);
+                            if (!r.ok()) continue;
+                            ASSERT_EQ(landings[i].sensorMm.x, r.ray.originMm.x) << what << " ray " << i;
+                            ASSERT_EQ(landings[i].sensorMm.y, r.ray.originMm.y) << what << " ray " << i;
+                        }
+                    }
+                }
+            }
+        }
+        EXPECT_GT(seen[TraceStatus::Ok], 1000) << target;
+        for (TraceStatus s : {TraceStatus::Missed, TraceStatus::Vignetted, TraceStatus::BlockedByIris,
+                              TraceStatus::TotalInternalReflection, TraceStatus::WrongExit})
+            EXPECT_GT(seen[s], 0) << target << " " << toString(s);
+    });
+}
+
 // What BundleTracer::advance does to rays over steps first..last, one step at a time: each ray's
 // state after the last step (if it went through), where and why it ended, and its margin at each
 // step it entered (NaN elsewhere).

@@ -603,6 +603,56 @@ TEST(Render, SameSeedSameImageForAnyThreadCount) {
     EXPECT_NE(other.layerXyz(kLayerGhost), one->layerXyz(kLayerGhost));
 }
 
+// Guided photons are traced in SIMD packets, each path's photons together at their own
+// wavelengths, unless the lens has dust, grease or media: then one at a time by tracePath, for
+// their clear transmittance. A medium that neither scatters nor absorbs changes no weight (its
+// transmittance is exp(−0) = 1), so the two ways must give the same render to the bit (every
+// photon guided: the unguided tracer would walk through the medium's cell differently).
+TEST(Render, GuidedPhotonsInPacketsEqualOneAtATime) {
+    // The double Gauss: dispersive glasses and coatings, so each photon's wavelength matters.
+    const Scene scene = parseSceneText(R"({
+  "lens": ")" + test::sourcePath("lenses/double-gauss-50mm.lens") + R"(",
+  "sensor": { "resolution": [180, 120] },
+  "lights": [ { "type": "directional", "field_deg": [6.0, 4.0], "spectrum": { "blackbody_k": 5778 } } ]
+})",
+                                       "double-gauss.json", "");
+    const LensSystem lens = buildSceneLens(scene);
+    RenderOptions o = optionsFor(scene, lens, RenderOptions::Mode::GuidedPhotons);
+    o.unguidedShare = 0.0;
+    o.perGhostLayers = true;
+    auto render = [&](const RenderOptions& options) {
+        auto r = std::make_unique<Renderer>(lens, scene.lights, options);
+        r->runPass();
+        r->runPass();
+        return r;
+    };
+    const auto packets = render(o);
+    RenderOptions clear = o;
+    BulkMedium medium;
+    medium.cell = 1;  // the first element's glass
+    clear.media = {medium};
+    const auto oneAtATime = render(clear);
+    // (The medium adds a layer and a tally of its own, for the light it would scatter: compared
+    // by name and path.)
+    const std::vector<std::string>& names = oneAtATime->layerNames();
+    for (int l = 0; l < static_cast<int>(packets->layerNames().size()); ++l) {
+        const auto it = std::find(names.begin(), names.end(), packets->layerNames()[l]);
+        ASSERT_NE(it, names.end()) << packets->layerNames()[l];
+        EXPECT_EQ(packets->layerXyz(l), oneAtATime->layerXyz(static_cast<int>(it - names.begin()))) << names[l];
+    }
+    int compared = 0;
+    for (const PathTally& a : packets->tallies())
+        for (const PathTally& b : oneAtATime->tallies())
+            if (a.kind == b.kind && a.light == b.light && a.path.reflections == b.path.reflections) {
+                EXPECT_EQ(a.sumMeans, b.sumMeans) << a.path.label();
+                EXPECT_EQ(a.sumSquaredMeans, b.sumSquaredMeans) << a.path.label();
+                ++compared;
+            }
+    EXPECT_GE(compared, static_cast<int>(packets->tallies().size()));
+    EXPECT_GT(packets->statistics().guidedPhotons, 10000);
+    EXPECT_GT(packets->tallyPowerW(packets->layerTallies()[kLayerGhost]), 0.0);
+}
+
 TEST(Render, ResumingFromACheckpointGivesTheUninterruptedImage) {
     const Scene scene = doubletScene();
     const LensSystem lens = buildSceneLens(scene);
