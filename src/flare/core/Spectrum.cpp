@@ -162,6 +162,8 @@ glm::dvec2 xyChromaticity(const glm::dvec3& xyz) {
 
 glm::dvec3 xyzToLinearSrgb(const glm::dvec3& xyz) { return rec709().fromXyz * xyz; }
 
+const glm::dmat3& xyzToLinearSrgbMatrix() { return rec709().fromXyz; }
+
 glm::dvec3 linearSrgbToXyz(const glm::dvec3& rgb) { return rec709().toXyz * rgb; }
 
 std::vector<SpectralSample> spectralQuadrature(const Spectrum& spectrum, int count) {

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <glm/vec2.hpp>
+#include <glm/mat3x3.hpp>
 #include <glm/vec3.hpp>
 
 namespace flare {
@@ -72,6 +73,8 @@ glm::dvec2 xyChromaticity(const glm::dvec3& xyz);
 // derived from the primaries and white above, so XYZ of the D65 white with Y = 1 maps to exactly
 // (1, 1, 1) up to rounding; its entries round to the standard's printed 4-decimal matrix.
 glm::dvec3 xyzToLinearSrgb(const glm::dvec3& xyz);
+// The matrix xyzToLinearSrgb multiplies by (matrix · xyz, the same bits), for loops over pixels.
+const glm::dmat3& xyzToLinearSrgbMatrix();
 glm::dvec3 linearSrgbToXyz(const glm::dvec3& rgb);
 
 // Deterministic spectral quadrature for the preview: `count` equal-width bands over 380–780 nm,

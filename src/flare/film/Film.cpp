@@ -9,6 +9,7 @@
 #include <numbers>
 #include <ostream>
 #include <stdexcept>
+#include <type_traits>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -233,8 +234,9 @@ void Film::addPixel(int layer, bool inTotal, int x, int y, const double* value) 
 }
 
 void Film::addRow(int layer, bool inTotal, int y, int xBegin, int xEnd, const double* values) {
-    // addPixel for each pixel with a non-zero value, a tile's run of the row at a time: its rows
-    // in the layer and the groups are found once per run, and a run of zeros allocates nothing.
+    // addPixel for each pixel, a tile's run of the row at a time: its rows in the layer and the
+    // groups are found once per run, and a run of zeros allocates nothing. (Adding a zero leaves
+    // a sum's bits as they are: the sums start at +0 and never become −0.)
     for (int x0 = xBegin; x0 < xEnd;) {
         const int x1 = std::min(xEnd, (x0 / kTilePx + 1) * kTilePx);
         const double* v = values + static_cast<size_t>(x0 - xBegin) * 3;
@@ -243,9 +245,7 @@ void Film::addRow(int layer, bool inTotal, int y, int xBegin, int xEnd, const do
         for (int i = 0; i < n; ++i) any = any || v[i] != 0.0;
         auto addRun = [&](Tiles& target) {
             double* p = target.at(x0, y);
-            for (int i = 0; i < n; i += 3)
-                if (v[i] != 0.0 || v[i + 1] != 0.0 || v[i + 2] != 0.0)
-                    for (int c = 0; c < 3; ++c) p[i + c] += v[i + c];
+            for (int i = 0; i < n; ++i) p[i] += v[i];
         };
         if (any) {
             addRun(*layers_[layer]);
@@ -385,14 +385,18 @@ void Film::integrateWideSplats() {
         const double largest = tbb::parallel_reduce(
             tbb::blocked_range<int>(0, span, 384), 0.0,
             [&](const tbb::blocked_range<int>& strip, double largestSoFar) {
-                std::vector<double> first(strip.size(), 0.0), second(strip.size(), 0.0);
+                // (The largest value per column, so that the loop has no chain from one element to
+                // the next and runs in vector lanes; a maximum is exact in any order.)
+                std::vector<double> first(strip.size(), 0.0), second(strip.size(), 0.0), peak(strip.size(), 0.0);
                 for (int y = box.y0; y <= box.y1; ++y) {
                     double* d = wide->at(box.x0, y) + strip.begin();
                     for (size_t i = 0; i < strip.size(); ++i) {
                         first[i] += d[i], second[i] += first[i], d[i] = second[i];
-                        largestSoFar = std::max(largestSoFar, std::abs(d[i]));
+                        const double magnitude = std::abs(d[i]);
+                        peak[i] = peak[i] < magnitude ? magnitude : peak[i];
                     }
                 }
+                for (const double v : peak) largestSoFar = std::max(largestSoFar, v);
                 return largestSoFar;
             },
             [](double a, double b) { return std::max(a, b); });
@@ -446,6 +450,7 @@ void Film::addBand(int band, int layer, const double* rows, bool inTotal) {
 void Film::endPass(std::int64_t photons) {
     integrateWideSplats();
     const double scale = 1.0 / (static_cast<double>(photons) * pixelMm_ * pixelMm_ / kMm2PerM2);
+    const glm::dmat3 toRgb = xyzToLinearSrgbMatrix();
     for (Group& group : groups_) {
         Tiles& pass = *group.pass;
         // Only the tiles this pass reached, each in one go (a tile's pixels are contiguous in it,
@@ -469,14 +474,19 @@ void Film::endPass(std::int64_t photons) {
                 };
                 double* s = tileOf(*group.sums[target]);
                 double* q = replicates_ > 0 ? nullptr : tileOf(*group.sums[1]);
-                for (int i = 0; i < kValues; i += 3) {
-                    if (p[i] == 0.0 && p[i + 1] == 0.0 && p[i + 2] == 0.0) continue;
-                    const glm::dvec3 rgb = xyzToLinearSrgb(glm::dvec3(p[i], p[i + 1], p[i + 2]) * scale);
-                    for (int c = 0; c < 3; ++c) {
-                        s[i + c] += rgb[c];
-                        if (q) q[i + c] += rgb[c] * rgb[c];
+                // Every pixel, without a test: a pixel at zero converts to +0 in every channel,
+                // which leaves the sums' bits as they are (they start at +0 and never become −0).
+                auto accumulate = [&](auto withSquares) {
+                    for (int i = 0; i < kValues; i += 3) {
+                        const glm::dvec3 rgb = toRgb * (glm::dvec3(p[i], p[i + 1], p[i + 2]) * scale);
+                        for (int c = 0; c < 3; ++c) {
+                            s[i + c] += rgb[c];
+                            if constexpr (decltype(withSquares)::value) q[i + c] += rgb[c] * rgb[c];
+                        }
                     }
-                }
+                };
+                if (q) accumulate(std::true_type{});
+                else accumulate(std::false_type{});
                 std::fill(p, p + kValues, 0.0);
                 pass.recycle(t);
             }
