@@ -16,15 +16,19 @@ IndexTable::IndexTable(const LensSystem& lens, double fromNm, double toNm)
 }
 
 SpectralIndices IndexTable::at(double wavelengthNm) const {
+    SpectralIndices indices;
+    fill(wavelengthNm, indices);
+    return indices;
+}
+
+void IndexTable::fill(double wavelengthNm, SpectralIndices& out) const {
     const double x = std::clamp(wavelengthNm - fromNm_, 0.0, static_cast<double>(samples_ - 1));
     const int s = std::min(static_cast<int>(x), samples_ - 2);
     const double t = x - s;
     const double* lo = &n_[static_cast<size_t>(s) * media_];
     const double* hi = lo + media_;
-    SpectralIndices indices;
-    indices.wavelengthNm = wavelengthNm;
-    for (int m = 0; m < media_; ++m) indices.n[m] = lo[m] + t * (hi[m] - lo[m]);
-    return indices;
+    out.wavelengthNm = wavelengthNm;
+    for (int m = 0; m < media_; ++m) out.n[m] = lo[m] + t * (hi[m] - lo[m]);
 }
 
 }  // namespace flare

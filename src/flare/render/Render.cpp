@@ -612,6 +612,7 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
     if (guidedInPackets && buffers.guidedIndices.size() < static_cast<size_t>(options_.batchPhotons))
         buffers.guidedIndices.resize(static_cast<size_t>(options_.batchPhotons));
     buffers.guidedRays.clear();
+    SpectralIndices oneIndices;  // a guided photon's, traced at once
     auto traceGuided = [&] {
         const size_t count = guided.size();
         if (count == 0) return;
@@ -713,7 +714,11 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
         double pdfPerNm = 0.0;
         const double wavelengthNm = light.wavelengths.sample(rng.uniform(), &pdfPerNm);
         const glm::dvec3 xyzWeight = light.wavelengths.xyzWeight(wavelengthNm, pdfPerNm);
-        const SpectralIndices indices = indexTable_.at(wavelengthNm);
+        // The indices go straight where the photon's trace reads them.
+        SpectralIndices& indices = component.slot < 0   ? pendingIndices[pending.size()]
+                                   : guidedInPackets    ? buffers.guidedIndices[guided.size()]
+                                                        : oneIndices;
+        indexTable_.fill(wavelengthNm, indices);
         const double u1 = rng.uniform(), u2 = rng.uniform(), u3 = rng.uniform();
         const double uLight1 = rng.uniform(), uLight2 = rng.uniform();
 
@@ -726,7 +731,6 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
             const double weight = emitted.powerPerMm2 * mask.areaMm2() / component.probability;
             if (weight == 0.0) continue;
             if (guidedInPackets) {
-                buffers.guidedIndices[guided.size()] = indices;
                 buffers.guidedRays.push_back(emitted.ray);
                 guided.push_back({static_cast<int>(c), weight, xyzWeight});
                 continue;
@@ -759,7 +763,6 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
         stats.unguidedEmittedPowerW += weight;
         const size_t i = pending.size();
         pending.push_back({a, b, weight, xyzWeight, component.light});
-        pendingIndices[i] = indices;
         packet.push_back({emitted.ray, &pendingIndices[i], Rng(walkSeed, walkStream + static_cast<std::uint64_t>(photon))});
         if (pending.size() == kPacketPhotons) tracePending();
     }
