@@ -242,6 +242,46 @@ TEST(PacketTracer, RaysAtTheirOwnWavelengthsEqualTracePath) {
     });
 }
 
+// Rays at their own wavelengths that are not finite, far outside the lens or on an aperture's
+// edge end as tracePath ends them, and nothing non-finite reaches a landing that is ok.
+TEST(PacketTracer, NonFiniteRaysAtTheirOwnWavelengthsEqualTracePath) {
+    const LensSystem lens = test::loadLens("lenses/wide-angle-28mm.lens");
+    const PupilGrid grid = PupilGrid::forDirection(lens, directionFromFieldDeg(3.0, -2.0));
+    const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+    const double edge = lens.surface(0).semiApertureMm;
+    std::vector<Ray> rays;
+    for (const glm::dvec2& p : std::vector<glm::dvec2>{{0.0, 0.0}, {edge, 0.0}, {std::nextafter(edge, 2 * edge), 0.0},
+                                                       {1e154, 0.0}, {edge * 0.6, edge * 0.7}, {1e-300, -1e-300}})
+        rays.push_back(grid.ray(p.x, p.y));
+    const Ray good = grid.ray(0.3 * edge, -0.2 * edge);
+    for (const glm::dvec3& origin : {glm::dvec3(nan, 0.0, good.originMm.z), glm::dvec3(0.0, inf, good.originMm.z),
+                                     glm::dvec3(0.0, 0.0, -inf), glm::dvec3(1e300, -1e300, good.originMm.z)})
+        rays.push_back({origin, good.direction});
+    for (const glm::dvec3& direction : {glm::dvec3(nan, 0.0, 1.0), glm::dvec3(0.0, 0.0, 0.0), glm::dvec3(0.0, 0.0, -1.0),
+                                        glm::dvec3(inf, 0.0, 1.0), glm::dvec3(0.0, 1.0, 0.0)})
+        rays.push_back({good.originMm, direction});
+    std::vector<SpectralIndices> indices;
+    std::vector<const SpectralIndices*> pointers;
+    for (size_t i = 0; i < rays.size(); ++i) indices.push_back(lens.indicesAt(400.0 + 23.0 * static_cast<double>(i)));
+    for (const SpectralIndices& n : indices) pointers.push_back(&n);
+    forEachTarget([&](const std::string& target) {
+        for (const GhostPath& ghost : {GhostPath{}, GhostPath{{5, 2}}}) {
+            const PacketTracer tracer(BundleTracer(lens, lens.indicesAt(550.0), ghost.reflections, true));
+            std::vector<BundleLanding> landings(rays.size());
+            tracer.trace(rays, pointers, landings);
+            SequentialPath path;
+            path.reflections = ghost.reflections;
+            for (size_t i = 0; i < rays.size(); ++i) {
+                const TraceResult r = tracePath(lens, indices[i], rays[i], path);
+                ASSERT_EQ(landings[i].status, r.status) << target << " " << ghost.label() << " ray " << i;
+                ASSERT_EQ(landings[i].surface, r.surface) << target << " ray " << i;
+                ASSERT_EQ(landings[i].throughput, r.throughput) << target << " ray " << i;
+                if (landings[i].ok()) ASSERT_TRUE(std::isfinite(landings[i].sensorMm.x + landings[i].sensorMm.y));
+            }
+        }
+    });
+}
+
 // What BundleTracer::advance does to rays over steps first..last, one step at a time: each ray's
 // state after the last step (if it went through), where and why it ended, and its margin at each
 // step it entered (NaN elsewhere).
