@@ -631,48 +631,6 @@ void PacketTracer::advance(int first, int last, std::span<BundleRay> rays, std::
     }
 }
 
-void PacketTracer::trace(const PupilGrid& grid, std::span<const glm::dvec2> pupilMm, std::span<BundleLanding> out) const {
-    constexpr int kLanes = detail::kPacketMaxLanes;
-    detail::PacketLanes b;
-    int index[detail::kPacketBatch];  // the input of each lane, −1 for padding
-    const LensSystem& lens = *path_.lens_;
-    for (size_t begin = 0; begin < pupilMm.size(); begin += detail::kPacketBatch) {
-        const int count = static_cast<int>(std::min<size_t>(detail::kPacketBatch, pupilMm.size() - begin));
-        int active = (count + kLanes - 1) / kLanes * kLanes;  // lanes in use, whole vectors
-        for (int i = 0; i < active; ++i) {
-            const Ray r = i < count ? grid.ray(pupilMm[begin + i].x, pupilMm[begin + i].y) : Ray{};
-            b.ox[i] = r.originMm.x, b.oy[i] = r.originMm.y, b.oz[i] = r.originMm.z;
-            b.dx[i] = r.direction.x, b.dy[i] = r.direction.y, b.dz[i] = r.direction.z;
-            b.throughput[i] = 1.0;
-            b.fate[i] = i < count ? 0.0 : 1.0;  // padding lanes never run
-            index[i] = i < count ? i : -1;
-        }
-        auto land = [&](int i) {
-            if (index[i] < 0) return;
-            BundleLanding& o = out[begin + index[i]];
-            o = BundleLanding{};
-            if (b.fate[i] == 0.0) {
-                o.sensorMm = {b.ox[i], b.oy[i]};
-                o.throughput = b.throughput[i];
-                o.status = TraceStatus::Ok;
-                o.surface = lens.surfaceCount();
-                return;
-            }
-            const int code = static_cast<int>(b.fate[i]) - 1;
-            o.status = static_cast<TraceStatus>(code % 8);
-            o.surface = path_.stepSurface(code / 8);
-        };
-        for (int step = 0; step < static_cast<int>(steps_.size()); ++step) {
-            const int going = runStep(step, b, active, false);
-            // A ghost path loses most rays within a few steps: once a quarter of the lanes are
-            // dead, the ended rays land and the going ones move together, so that later steps
-            // run fewer vectors (moving a ray costs far less than a step).
-            active = compactLanes(b, index, active, going, land);
-        }
-        for (int i = 0; i < active; ++i) land(i);
-    }
-}
-
 int PacketTracer::runStepOwnIndices(int step, detail::PacketLanes& b, int active, const int* index,
                                     std::span<const SpectralIndices* const> indices) const {
     using Kind = detail::PacketStep::Kind;
@@ -709,24 +667,25 @@ int PacketTracer::runStepOwnIndices(int step, detail::PacketLanes& b, int active
     return going;
 }
 
-void PacketTracer::trace(std::span<const Ray> rays, std::span<const SpectralIndices* const> indices,
-                         std::span<BundleLanding> out) const {
+template <bool kOwnIndices, class RayAt>
+void PacketTracer::traceRays(size_t count, const RayAt& rayAt, std::span<const SpectralIndices* const> indices,
+                             std::span<BundleLanding> out) const {
     constexpr int kLanes = detail::kPacketMaxLanes;
     detail::PacketLanes b;
     int index[detail::kPacketBatch];  // the input of each lane, −1 for padding
     const LensSystem& lens = *path_.lens_;
-    std::vector<int> retrace;
-    for (size_t begin = 0; begin < rays.size(); begin += detail::kPacketBatch) {
-        const int count = static_cast<int>(std::min<size_t>(detail::kPacketBatch, rays.size() - begin));
-        int active = (count + kLanes - 1) / kLanes * kLanes;
+    std::vector<int> retrace;  // (own indices) rays left to the scalar code at a refraction
+    for (size_t begin = 0; begin < count; begin += detail::kPacketBatch) {
+        const int batch = static_cast<int>(std::min<size_t>(detail::kPacketBatch, count - begin));
+        int active = (batch + kLanes - 1) / kLanes * kLanes;  // lanes in use, whole vectors
         for (int i = 0; i < active; ++i) {
-            const Ray r = i < count ? rays[begin + i] : Ray{};
+            const Ray r = i < batch ? rayAt(begin + i) : Ray{};
             b.ox[i] = r.originMm.x, b.oy[i] = r.originMm.y, b.oz[i] = r.originMm.z;
             b.dx[i] = r.direction.x, b.dy[i] = r.direction.y, b.dz[i] = r.direction.z;
             b.throughput[i] = 1.0;
-            b.fate[i] = i < count ? 0.0 : 1.0;  // padding lanes never run
-            b.eta[i] = 1.0;
-            index[i] = i < count ? static_cast<int>(begin) + i : -1;
+            b.fate[i] = i < batch ? 0.0 : 1.0;  // padding lanes never run
+            if constexpr (kOwnIndices) b.eta[i] = 1.0;
+            index[i] = i < batch ? static_cast<int>(begin) + i : -1;
         }
         auto land = [&](int i) {
             if (index[i] < 0) return;
@@ -740,7 +699,7 @@ void PacketTracer::trace(std::span<const Ray> rays, std::span<const SpectralIndi
                 return;
             }
             const int code = static_cast<int>(b.fate[i]) - 1;
-            if (code % 8 == detail::kRetraceStatus) {
+            if (kOwnIndices && code % 8 == detail::kRetraceStatus) {
                 retrace.push_back(index[i]);
                 return;
             }
@@ -748,18 +707,23 @@ void PacketTracer::trace(std::span<const Ray> rays, std::span<const SpectralIndi
             o.surface = path_.stepSurface(code / 8);
         };
         for (int step = 0; step < static_cast<int>(steps_.size()); ++step) {
-            const int going = runStepOwnIndices(step, b, active, index, indices);
+            int going;
+            if constexpr (kOwnIndices) going = runStepOwnIndices(step, b, active, index, indices);
+            else going = runStep(step, b, active, false);
+            // A ghost path loses most rays within a few steps: once a quarter of the lanes are
+            // dead, the ended rays land and the going ones move together, so that later steps
+            // run fewer vectors (moving a ray costs far less than a step).
             active = compactLanes(b, index, active, going, land);
         }
         for (int i = 0; i < active; ++i) land(i);
     }
-    if (retrace.empty()) return;
+    if (!kOwnIndices || retrace.empty()) return;
     SequentialPath path;
     path.reflections = path_.reflections();
     TraceOptions options;
     options.fresnelWeights = path_.fresnelWeights_;
     for (const int j : retrace) {
-        const TraceResult r = tracePath(lens, *indices[j], rays[j], path, options);
+        const TraceResult r = tracePath(lens, *indices[j], rayAt(static_cast<size_t>(j)), path, options);
         BundleLanding& o = out[j];
         o = BundleLanding{};
         o.status = r.status;
@@ -767,6 +731,15 @@ void PacketTracer::trace(std::span<const Ray> rays, std::span<const SpectralIndi
         o.throughput = r.throughput;
         if (r.ok()) o.sensorMm = {r.ray.originMm.x, r.ray.originMm.y};
     }
+}
+
+void PacketTracer::trace(const PupilGrid& grid, std::span<const glm::dvec2> pupilMm, std::span<BundleLanding> out) const {
+    traceRays<false>(pupilMm.size(), [&](size_t i) { return grid.ray(pupilMm[i].x, pupilMm[i].y); }, {}, out);
+}
+
+void PacketTracer::trace(std::span<const Ray> rays, std::span<const SpectralIndices* const> indices,
+                         std::span<BundleLanding> out) const {
+    traceRays<true>(rays.size(), [&](size_t i) { return rays[i]; }, indices, out);
 }
 
 }  // namespace flare

@@ -120,6 +120,11 @@ private:
     // Step `step` for the going lanes of a batch (its first `active` lanes), with their margins
     // when asked; returns how many are still going.
     int runStep(int step, detail::PacketLanes& b, int active, bool margins) const;
+    // Both trace()s: the rays rayAt(0 .. count − 1), at the path's wavelength or, with
+    // kOwnIndices, each at its own (indices[i]).
+    template <bool kOwnIndices, class RayAt>
+    void traceRays(size_t count, const RayAt& rayAt, std::span<const SpectralIndices* const> indices,
+                   std::span<BundleLanding> out) const;
     // runStep for rays at their own wavelengths: lane i's ray is input index[i] (−1: padding),
     // whose indices are indices[index[i]]. Rays a refracting step leaves to the scalar code end
     // with the fate kRetraceStatus (traced again by tracePath).
