@@ -67,8 +67,12 @@ public:
     };
     // With `only` (e.g. BundleTracer::interfaces()), just those interfaces are tabulated (a beam's
     // one-off tables then cost a path's share of the lens); others fall back to the exact response.
+    // The slopes come from central differences of the response (three responses per point: the
+    // 1e-12 agreement above); with `slopesFromValues`, from the tabulated values themselves (one
+    // response per point, a third of the cost, for coarse one-off tables whose own error is larger
+    // anyway; see test_bundle_tracer.cpp for both errors).
     InterfaceTables(const LensSystem& lens, const SpectralIndices& indices, int intervals = kDefaultIntervals,
-                    std::span<const Interface> only = {});
+                    std::span<const Interface> only = {}, bool slopesFromValues = false);
     // interfaceResponse(lens, indices, surface, direction, cosThetaI).reflectance() / .transmittance().
     double reflectance(int surface, int direction, double cosThetaI) const;
     double transmittance(int surface, int direction, double cosThetaI) const;
