@@ -80,40 +80,28 @@ InterfaceTables::InterfaceTables(const LensSystem& lens, const SpectralIndices& 
         // rounding error (~1e-10) and the truncation error (~1e-12 times the third
         // derivative) of a slope move the interpolant by about 1e-13.
         constexpr double d = 1e-6;
-        if (slopesFromValues && intervals_ >= 4) {
-            // One response per point; the slopes from the values by fourth-order central
-            // differences, (−v[i+2] + 8 v[i+1] − 8 v[i−1] + v[i−2]) / 12h. At the two points at
-            // each end, and where the stencil would reach across total internal reflection's
-            // edge (up to 0.1 beyond the exact zone, whose square-root edge has large higher
-            // derivatives), the response's own central differences as below.
-            for (int i = 0; i <= intervals_; ++i) {
-                const FresnelTerms at = f(i * h);
-                transmit.value[i] = at.transmittance();
-                reflect.value[i] = at.reflectance();
-            }
-            for (int i = 0; i <= intervals_; ++i) {
-                const double c = i * h;
-                const bool nearEdge = c >= exactFrom - 3.0 * h && c <= exactTo + 0.1;
-                if (i < 2 || i > intervals_ - 2 || nearEdge) {
-                    const double lo = std::max(0.0, c - d), hi = std::min(1.0, c + d);
-                    const FresnelTerms below = f(lo), above = f(hi);
-                    transmit.slope[i] = (above.transmittance() - below.transmittance()) / (hi - lo);
-                    reflect.slope[i] = (above.reflectance() - below.reflectance()) / (hi - lo);
-                    continue;
-                }
+        for (int i = 0; i <= intervals_; ++i) {
+            const FresnelTerms at = f(i * h);
+            transmit.value[i] = at.transmittance();
+            reflect.value[i] = at.reflectance();
+        }
+        for (int i = 0; i <= intervals_; ++i) {
+            const double c = i * h;
+            // slopesFromValues: fourth-order central differences of the values,
+            // (−v[i+2] + 8 v[i+1] − 8 v[i−1] + v[i−2]) / 12h, one response per point; not at the
+            // two points at each end, nor where the stencil would reach across total internal
+            // reflection's edge (up to 0.1 beyond the exact zone: a square-root edge has large
+            // higher derivatives).
+            const bool nearEdge = c >= exactFrom - 3.0 * h && c <= exactTo + 0.1;
+            if (slopesFromValues && i >= 2 && i <= intervals_ - 2 && !nearEdge) {
                 for (Table* t : {&transmit, &reflect}) {
                     const std::vector<double>& v = t->value;
                     t->slope[i] = (-v[i + 2] + 8.0 * v[i + 1] - 8.0 * v[i - 1] + v[i - 2]) / (12.0 * h);
                 }
+                continue;
             }
-            return;
-        }
-        for (int i = 0; i <= intervals_; ++i) {
-            const double c = i * h;
             const double lo = std::max(0.0, c - d), hi = std::min(1.0, c + d);
-            const FresnelTerms at = f(c), below = f(lo), above = f(hi);
-            transmit.value[i] = at.transmittance();
-            reflect.value[i] = at.reflectance();
+            const FresnelTerms below = f(lo), above = f(hi);
             transmit.slope[i] = (above.transmittance() - below.transmittance()) / (hi - lo);
             reflect.slope[i] = (above.reflectance() - below.reflectance()) / (hi - lo);
         }
