@@ -225,9 +225,13 @@ void appendGhostPaths(const LensSystem& lens, const std::vector<GhostPath>& path
 
 GhostReport analyseGhosts(const LensSystem& lens, const glm::dvec3& lightDirection,
                           const GhostAnalysisOptions& options) {
+    return analyseGhosts(lens, PupilGrid::forDirection(lens, lightDirection), options);
+}
+
+GhostReport analyseGhosts(const LensSystem& lens, const PupilGrid& grid, const GhostAnalysisOptions& options) {
     GhostReport report;
     report.wavelengthNm = options.wavelengthNm;
-    report.grid = PupilGrid::forDirection(lens, lightDirection);
+    report.grid = grid;
     report.enteringAreaMm2 = report.grid.enteringAreaMm2(lens, 512);
     const SpectralIndices indices = lens.indicesAt(options.wavelengthNm);
     // The Fresnel/coating factors, tabulated once for all paths.

@@ -88,7 +88,10 @@ struct GhostReport {
 GhostEstimate estimatePath(const LensSystem& lens, const SpectralIndices& indices, const PupilGrid& grid,
                            double enteringAreaMm2, const GhostPath& path, const GhostAnalysisOptions& options);
 
-// Enumerates, estimates (in parallel over paths, deterministically) and prunes.
+// Enumerates, estimates (in parallel over paths, deterministically) and prunes, for the rays of
+// `grid` (a light's: LightSampler::grid(), parallel or fanning from a point).
+GhostReport analyseGhosts(const LensSystem& lens, const PupilGrid& grid, const GhostAnalysisOptions& options);
+// The same for parallel rays travelling along `lightDirection`.
 GhostReport analyseGhosts(const LensSystem& lens, const glm::dvec3& lightDirection,
                           const GhostAnalysisOptions& options);
 

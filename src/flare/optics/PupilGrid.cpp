@@ -4,6 +4,7 @@
 #include <cmath>
 #include <functional>
 #include <numbers>
+#include <stdexcept>
 
 #include <glm/geometric.hpp>
 #include <tbb/blocked_range.h>
@@ -40,6 +41,37 @@ PupilGrid PupilGrid::forDirection(const LensSystem& lens, const glm::dvec3& dire
     // Start every ray in front of the lens's first point.
     const double zStart = objectSpaceStartZMm(lens);
     grid.backOffMm = (first.vertexZMm - zStart + grid.halfSizeMm * sinTheta) / std::max(grid.direction.z, 1e-3) + 1.0;
+    return grid;
+}
+
+PupilGrid PupilGrid::forPoint(const LensSystem& lens, const glm::dvec3& sourceMm) {
+    const Surface& first = lens.surface(0);
+    const glm::dvec3 vertexMm(0.0, 0.0, first.vertexZMm);
+    PupilGrid grid = forDirection(lens, vertexMm - sourceMm);
+    grid.fromPoint = true;
+    grid.sourceMm = sourceMm;
+    const double distanceMm = glm::length(vertexMm - sourceMm);
+    double maxSag = 0.0;
+    for (int k = 0; k <= 32; ++k) {
+        const double r = first.semiApertureMm * k / 32.0;
+        double sag = 0.0;
+        if (first.sagMm(r * r, &sag)) maxSag = std::max(maxSag, std::abs(sag));
+    }
+    // An aperture point lies within r0 + |sag|·sinθ of the central ray and within `reach` of the
+    // plane along it; the ray from the source through it crosses the plane at most
+    // D / (D − reach) times farther out (D: the source's distance from the plane).
+    const double sinTheta = std::sqrt(std::max(0.0, 1.0 - grid.direction.z * grid.direction.z));
+    const double reachMm = maxSag + first.semiApertureMm * sinTheta;
+    if (!(distanceMm > reachMm + 1e-6))
+        throw std::invalid_argument("PupilGrid::forPoint: the source lies within the lens's front surface");
+    grid.halfSizeMm = 1.01 * (first.semiApertureMm + maxSag * sinTheta) * distanceMm / (distanceMm - reachMm) + 1e-3;
+    // The most inclined ray of the window leans by up to α from the central one: start far enough
+    // back that it too begins in front of the lens's first point.
+    const double alpha = std::atan(std::sqrt(2.0) * grid.halfSizeMm / distanceMm);
+    const double cosSteepest = std::cos(std::min(std::acos(std::clamp(grid.direction.z, -1.0, 1.0)) + alpha, 0.5 * std::numbers::pi));
+    const double zStart = objectSpaceStartZMm(lens);
+    grid.backOffMm =
+        (first.vertexZMm - zStart + std::sqrt(2.0) * grid.halfSizeMm * sinTheta) / std::max(cosSteepest, 1e-3) + 1.0;
     return grid;
 }
 

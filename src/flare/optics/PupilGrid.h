@@ -1,10 +1,14 @@
-// Parallel rays of a directional light named by where they cross a plane normal to their
-// direction: the common parametrisation of the ghost analysis, the preview and (later) guided
-// photon emission. The plane passes through the first vertex; (a, b) are millimetres along e1, e2.
+// The rays of one light named by where they cross a plane normal to the light's central direction:
+// the common parametrisation of the ghost analysis, the preview, the beams and photon emission. The
+// plane passes through the first vertex; (a, b) are millimetres along e1, e2. A directional light's
+// rays are parallel; a point source's (a point light, or one point of a disk light) fan out from
+// it, each through its own point of the plane. Everything that traces a grid's rays (the ghost
+// analysis, the meshes, the guide masks) works the same on both.
 #pragma once
 
 #include <vector>
 
+#include <glm/geometric.hpp>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
@@ -24,10 +28,35 @@ struct PupilGrid {
     glm::dvec3 centreMm{0.0};
     double backOffMm = 0.0;   // rays start this far before the plane, in front of the lens
     double halfSizeMm = 0.0;  // [−half, half]² covers every ray that can enter the front aperture
+    // Rays from a point: each from sourceMm through its plane point (direction is then the central
+    // ray's, from the source through the first vertex).
+    bool fromPoint = false;
+    glm::dvec3 sourceMm{0.0};
 
     static PupilGrid forDirection(const LensSystem& lens, const glm::dvec3& direction);
+    // The rays from a point in front of the lens (z below the first surface's foremost point).
+    static PupilGrid forPoint(const LensSystem& lens, const glm::dvec3& sourceMm);
+    // The same plane and window with the rays from another point (a disk light's sampled point):
+    // the (a, b) of a mask or a lattice name the same plane points.
+    PupilGrid withSource(const glm::dvec3& pointMm) const {
+        PupilGrid moved = *this;
+        moved.sourceMm = pointMm;
+        return moved;
+    }
     Ray ray(double aMm, double bMm) const {
+        if (fromPoint) return rayFrom(sourceMm, aMm, bMm);
         return {centreMm + aMm * e1 + bMm * e2 - backOffMm * direction, direction};
+    }
+    // The ray from pointMm through the plane point (a, b). It starts backOffMm before the plane
+    // (in front of the lens, whatever its inclination within the fan), or at the point when that
+    // is nearer: a far light's rays then start near the lens, where their arithmetic is as precise
+    // as a directional light's (from 10⁹ mm away, a sphere's intersection would lose 9 digits).
+    Ray rayFrom(const glm::dvec3& pointMm, double aMm, double bMm) const {
+        const glm::dvec3 onPlane = centreMm + aMm * e1 + bMm * e2;
+        const glm::dvec3 toPlane = onPlane - pointMm;
+        const double distanceMm = glm::length(toPlane);
+        const glm::dvec3 d = toPlane / distanceMm;
+        return {distanceMm > backOffMm ? onPlane - backOffMm * d : pointMm, d};
     }
     // Area of the front clear aperture projected on the plane (mm²): the cross-section of the
     // beam that enters the lens. Counted on a cells × cells grid.

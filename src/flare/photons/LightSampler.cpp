@@ -29,7 +29,9 @@ double frontDepthMm(const LensSystem& lens) {
 }  // namespace
 
 LightSampler::LightSampler(const LightSpec& light, const LensSystem& lens)
-    : light_(light), grid_(PupilGrid::forDirection(lens, light.travelDirection())) {
+    : light_(light),
+      grid_(light.type == LightSpec::Type::Directional ? PupilGrid::forDirection(lens, light.travelDirection())
+                                                       : PupilGrid::forPoint(lens, light.positionMm)) {
     const double depth = frontDepthMm(lens);
     // Widest angle between an emitted ray and the central direction.
     double spreadRad = 0.0;
@@ -51,6 +53,21 @@ LightSampler::LightSampler(const LightSpec& light, const LensSystem& lens)
     emissionHalfSizeMm_ = 1.02 * grid_.halfSizeMm + depth * std::tan(std::min(spreadRad, 1.4));
 }
 
+PupilGrid LightSampler::gridFor(double u1, double u2) const {
+    if (light_.type == LightSpec::Type::Point) return grid_;
+    if (light_.type == LightSpec::Type::Disk) return grid_.withSource(diskPoint(u1, u2));
+    PupilGrid grid = grid_;
+    grid.direction = rayThrough(0.0, 0.0, u1, u2).ray.direction;
+    return grid;
+}
+
+glm::dvec3 LightSampler::diskPoint(double u1, double u2) const {
+    if (!(light_.radiusMm > 0.0)) return light_.positionMm;
+    const double r = light_.radiusMm * std::sqrt(u1);
+    const double phi = 2.0 * std::numbers::pi * u2;
+    return light_.positionMm + r * (std::cos(phi) * diskU_ + std::sin(phi) * diskV_);
+}
+
 EmittedRay LightSampler::rayThrough(double aMm, double bMm, double u1, double u2) const {
     const glm::dvec3 onPlane = grid_.centreMm + aMm * grid_.e1 + bMm * grid_.e2;
     EmittedRay out;
@@ -70,19 +87,15 @@ EmittedRay LightSampler::rayThrough(double aMm, double bMm, double u1, double u2
     // Point or disk: a ray from the (sampled) emitting point through the plane point. The solid
     // angle of a plane element dA seen from the source is dA cosθ' / r²; a Lambertian disk of
     // on-axis intensity I sends I cosθs dω from a point drawn uniformly over its area.
-    glm::dvec3 source = light_.positionMm;
+    const glm::dvec3 source = light_.type == LightSpec::Type::Disk ? diskPoint(u1, u2) : light_.positionMm;
     double cosSource = 1.0;
-    if (light_.type == LightSpec::Type::Disk && light_.radiusMm > 0.0) {
-        const double r = light_.radiusMm * std::sqrt(u1);
-        const double phi = 2.0 * std::numbers::pi * u2;
-        source += r * (std::cos(phi) * diskU_ + std::sin(phi) * diskV_);
-    }
     const glm::dvec3 toPlane = onPlane - source;
     const double distance2 = glm::dot(toPlane, toPlane);
-    const glm::dvec3 direction = toPlane / std::sqrt(distance2);
+    out.ray = grid_.rayFrom(source, aMm, bMm);
+    out.sourceMm = source;
+    const glm::dvec3& direction = out.ray.direction;
     if (light_.type == LightSpec::Type::Disk) cosSource = glm::dot(direction, light_.diskNormal());
     const double cosPlane = glm::dot(direction, grid_.direction);
-    out.ray = {source, direction};
     out.powerPerMm2 = cosSource > 0.0 && cosPlane > 0.0 ? light_.power * cosSource * cosPlane / distance2 : 0.0;
     return out;
 }

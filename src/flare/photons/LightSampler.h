@@ -13,8 +13,9 @@
 namespace flare {
 
 struct EmittedRay {
-    Ray ray;                     // starts in front of the lens
+    Ray ray;                     // starts in front of the lens (a far light's, near it: PupilGrid::rayFrom)
     double powerPerMm2 = 0.0;    // W per mm² of the pupil plane (0: this ray carries nothing)
+    glm::dvec3 sourceMm{0.0};    // point and disk lights: the emitting point the ray comes from
 };
 
 class LightSampler {
@@ -29,8 +30,19 @@ public:
     // The ray through (aMm, bMm) on the pupil plane, with the light's angular extent sampled by
     // u1, u2 in [0, 1): uniform over the sun's cone, or a uniform point of a disk light.
     EmittedRay rayThrough(double aMm, double bMm, double u1, double u2) const;
+    // The rays of one sample (u1, u2) of the light's extent, as rayThrough draws it, over the whole
+    // plane: a directional light's direction within its disk (parallel rays), a disk light's
+    // point (rays fanning from it), a point light's own rays. A beam meshes one such grid.
+    PupilGrid gridFor(double u1, double u2) const;
+    // Whether the power per mm² of the plane is the same for every ray of a gridFor grid (parallel
+    // rays); else it varies over the plane (a point's inverse square and obliquity) and beams
+    // weight each ray by rayThrough's.
+    bool uniformOverPlane() const { return light_.type == LightSpec::Type::Directional; }
 
 private:
+    // A disk light's point for (u1, u2): uniform over its area.
+    glm::dvec3 diskPoint(double u1, double u2) const;
+
     LightSpec light_;
     PupilGrid grid_;
     double emissionHalfSizeMm_ = 0.0;

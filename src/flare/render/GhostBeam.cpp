@@ -64,7 +64,7 @@ glm::dvec2 tentJitter(double u1, double u2) {
 
 GhostBeam GhostBeam::build(const BundleTracer& tracer, const PupilGrid& grid, const PupilLattice& lattice,
                            const GuideMask& mask, const FilmFrame& frame, const PupilRemeshOptions& options,
-                           const std::function<double(const glm::dvec2& pupilMm)>& clearFactor) {
+                           const std::function<double(const glm::dvec2& pupilMm)>& vertexFactor) {
     GhostBeam beam;
     beam.frame_ = frame;
     if (lattice.empty() || mask.empty()) return beam;
@@ -108,12 +108,12 @@ GhostBeam GhostBeam::build(const BundleTracer& tracer, const PupilGrid& grid, co
             v.smallestDet = std::min(v.smallestDet, std::abs(det));
         }
     }
-    if (clearFactor) {
+    if (vertexFactor) {
         std::vector<double> factor(vertices.size(), -1.0);
         for (size_t n = 0; n < mesh.triangles.size(); ++n)
             for (int k = 0; k < 3; ++k) {
                 double& f = factor[corners[n][k]];
-                if (f < 0.0) f = clearFactor(mesh.triangles[n].v[k].pupilMm);
+                if (f < 0.0) f = vertexFactor(mesh.triangles[n].v[k].pupilMm);
                 mesh.triangles[n].v[k].throughput *= f;
             }
     }

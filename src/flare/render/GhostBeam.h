@@ -1,5 +1,6 @@
-// A beam: the image one ghost path of one directional light casts on the sensor at one wavelength
-// and one direction within the light's disk, integrated over the pupil deterministically. The
+// A beam: the image one ghost path of one light casts on the sensor at one wavelength and one
+// sample of the light's extent (a direction within a directional light's disk, a point of a disk
+// light), integrated over the pupil deterministically. The
 // path's live region is meshed at that wavelength and direction (PupilMesh, the preview's
 // machinery) and clipped to the path's guide mask; each triangle maps the pupil affinely onto the
 // sensor (a piecewise-linear ray map).
@@ -81,12 +82,13 @@ public:
     GhostBeam() = default;
     // Meshes the path's live region for the rays of `grid` (the light's pupil plane, with the
     // beam's direction) traced by `tracer` (the beam's wavelength), on the cells of the ghost
-    // analysis's search (`lattice`), and keeps the part inside `mask`. With `clearFactor`, every
-    // vertex's throughput is multiplied by it (the probability that the vertex's ray crosses the
-    // lens's dust, grease and bulk media clear: guided paths own only unscattered light).
+    // analysis's search (`lattice`), and keeps the part inside `mask`. With `vertexFactor`, every
+    // vertex's throughput is multiplied by it: the probability that the vertex's ray crosses the
+    // lens's dust, grease and bulk media clear (guided paths own only unscattered light), and a
+    // point source's power per mm² of the plane relative to the central ray's.
     static GhostBeam build(const BundleTracer& tracer, const PupilGrid& grid, const PupilLattice& lattice,
                            const GuideMask& mask, const FilmFrame& frame, const PupilRemeshOptions& options,
-                           const std::function<double(const glm::dvec2& pupilMm)>& clearFactor = {});
+                           const std::function<double(const glm::dvec2& pupilMm)>& vertexFactor = {});
 
     // A beam of given triangles (pupil and pixel positions, throughput and irradiance per vertex,
     // pupil and image areas, `small` set by the caller), for tests and tools.

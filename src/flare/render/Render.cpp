@@ -173,8 +173,12 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
 
     std::vector<double> lightWeight;
     for (const LightSpec& spec : lights) {
-        LightState state{LightSampler(spec, lens), WavelengthSampler(toSpectrum(spec.spectrum)),
-                         analyseGhosts(lens, spec.travelDirection(), options.analysis), {}, {}, {}, {}, {}, {}, {}, 0, 0};
+        LightSampler sampler(spec, lens);
+        // The analysis traces the light's own rays: parallel for a directional light, fanning from
+        // the light for a point or disk (its centre), so that masks and beams see its live regions.
+        GhostReport analysed = analyseGhosts(lens, sampler.grid(), options.analysis);
+        LightState state{std::move(sampler), WavelengthSampler(toSpectrum(spec.spectrum)), std::move(analysed),
+                         {}, {}, {}, {}, {}, {}, {}, 0, 0};
         LightPlan plan;
         plan.name = spec.name;
         // Longer chains: the strongest order-4 paths are enumerated and guided too when the lens's
@@ -328,7 +332,7 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
             // GuideMask::traced), in parallel over paths; each mask is a pure function of its path.
             const SpectralIndices indices = lens.indicesAt(options.analysis.wavelengthNm);
             const double marginMm = kGuideSensorMargin * lens.sensorHalfDiagonalMm();
-            const bool beamLight = beamsPossible && spec.type == LightSpec::Type::Directional;
+            const bool beamLight = beamsPossible;
             tbb::parallel_for(0, state.slots, [&](int slot) {
                 const GhostEstimate& estimate = slot == 0 ? report.direct : report.ghosts[slot - 1];
                 if (slot > 0 && estimate.pruned) return;
@@ -791,8 +795,15 @@ void Renderer::traceBeam(BeamJob& job) const {
     const WavelengthSampler& wavelengths = *light.beamWavelengths[job.slot];
     const double wavelengthNm = wavelengths.sample(u[0], &pdfPerNm);
     const glm::dvec3 xyzWeight = wavelengths.xyzWeight(wavelengthNm, pdfPerNm);
+    // The light's extent: a direction within a directional light's disk, a point of a disk light
+    // (a point light has one of each). The beam meshes that sample's rays.
     const glm::dvec2 lightU = concentricToPolarUniforms(u[1], u[2]);
     const EmittedRay central = light.sampler.rayThrough(0.0, 0.0, lightU.x, lightU.y);
+    const PupilGrid grid = light.sampler.gridFor(lightU.x, lightU.y);
+    // Parallel rays carry the same power per mm² of the plane; a point's rays carry its inverse
+    // square and obliquity, which every vertex's throughput takes relative to the central ray's.
+    const bool uniform = light.sampler.uniformOverPlane();
+    const double referencePerMm2 = uniform || central.powerPerMm2 > 0.0 ? central.powerPerMm2 : 1.0;
     // (A test's deliberate error: the jitter moves the sampled image, so a shifted jitter shifts it.)
     job.jitterPx = tentJitter(u[3], u[4]) - glm::dvec2(options_.testBeamShiftPx, 0.0);
     job.seed = rng.next();
@@ -808,8 +819,6 @@ void Renderer::traceBeam(BeamJob& job) const {
         BundleTracer(lens, indices, estimate.path.reflections, false).interfaces();
     const InterfaceTables tables(lens, indices, kBeamTableIntervals, interfaces, true);
     const BundleTracer tracer(lens, indices, estimate.path.reflections, true, &tables);
-    PupilGrid grid = light.report.grid;
-    grid.direction = central.ray.direction;
     const FilmFrame frame{options_.film.widthPx, options_.film.heightPx, options_.film.widthMm, options_.film.heightMm,
                           options_.film.widthMm / options_.film.widthPx};
     PupilRemeshOptions remesh;
@@ -828,21 +837,24 @@ void Renderer::traceBeam(BeamJob& job) const {
         traceOptions.pathSurfaces = &pathSurfaces;
     }
     const std::unique_ptr<PhotonTracer::Scratch> scratch = tracer_.makeScratch();
-    std::function<double(const glm::dvec2&)> clear;
-    if (clearWeight)
-        clear = [&](const glm::dvec2& pupilMm) {
+    std::function<double(const glm::dvec2&)> vertexFactor;
+    if (clearWeight || !uniform)
+        vertexFactor = [&](const glm::dvec2& pupilMm) {
+            double factor = 1.0;
+            if (!uniform) factor = light.sampler.rayThrough(pupilMm.x, pupilMm.y, lightU.x, lightU.y).powerPerMm2 / referencePerMm2;
+            if (!clearWeight) return factor;
             pathPoints.clear();
             pathSurfaces.clear();
             const TraceResult r = tracePath(lens, indices, grid.ray(pupilMm.x, pupilMm.y), sequence, traceOptions);
-            return r.ok() ? tracer_.clearTransmittance(pathPoints, pathSurfaces, wavelengthNm, rng, *scratch) : 1.0;
+            return r.ok() ? factor * tracer_.clearTransmittance(pathPoints, pathSurfaces, wavelengthNm, rng, *scratch) : factor;
         };
-    job.beam = GhostBeam::build(tracer, grid, estimate.lattice, mask, frame, remesh, clear);
+    job.beam = GhostBeam::build(tracer, grid, estimate.lattice, mask, frame, remesh, vertexFactor);
 
     // Film units: the pass's image is its accumulated power over photonsPerPass (the film's
     // divisor), and the path's estimate is the mean of its beams.
     const double perBeam = static_cast<double>(options_.photonsPerPass()) / beams;  // beams: the expectation
-    job.scale = xyzWeight * (central.powerPerMm2 * perBeam);
-    job.powerY = job.beam.powerOnSensor() * central.powerPerMm2 * xyzWeight.y / static_cast<double>(beams);
+    job.scale = xyzWeight * (referencePerMm2 * perBeam);
+    job.powerY = job.beam.powerOnSensor() * referencePerMm2 * xyzWeight.y / static_cast<double>(beams);
 
     // Correction photons: the same wavelength and direction, pupil points stratified over the
     // mask; each photon adds itself and subtracts its twin.
@@ -879,7 +891,7 @@ void Renderer::traceBeam(BeamJob& job) const {
         BeamTwin twin;
         if (job.beam.twin(ab, &twin)) {
             const glm::dvec2 sensorMm = frame.toSensorMm(twin.pixel);
-            const glm::dvec3 xyz = -base * (central.powerPerMm2 * twin.throughput);
+            const glm::dvec3 xyz = -base * (referencePerMm2 * twin.throughput);
             hit(sensorMm, xyz);
             correctionY += xyz.y;
         }

@@ -2,17 +2,17 @@
 // layers (direct, ghost, higher, scatter, and one per ghost on request).
 //
 // Every light path belongs to exactly one estimator (DESIGN.md, "the one rule"):
-//   beams    (guided mode, directional lights) each kept ghost path is owned for the pupil points
+//   beams    (guided mode, every light) each kept ghost path is owned for the pupil points
 //            inside its guide mask. Its image is estimated per pass by beams (GhostBeam.h): the
-//            path meshed at a sampled wavelength, direction within the light's disk and film-kernel
-//            jitter, its irradiance integrated over the pupil deterministically; the samples
+//            path meshed at a sampled wavelength, sample of the light's extent (a direction within
+//            a directional light's disk, a point of a disk light; a point light's rays fan from
+//            it) and film-kernel jitter, its irradiance integrated over the pupil deterministically; the samples
 //            continue an Owen-scrambled Sobol' sequence from pass to pass (one per replicate,
 //            below), with wavelengths drawn where the path's coatings reflect. Photons traced through the path at a beam's wavelength and direction correct
 //            the beam through their twins (photon − twin, both splatted with the film's kernel),
 //            so the estimate is unbiased whatever the mesh's error, and the noise left is that of
 //            the difference, which vanishes where the piecewise-linear map is accurate.
-//   guided photons  the direct image, and kept ghosts that beams cannot render (point and disk
-//            lights; mode GuidedPhotons for all of them): photons emitted only through the path's
+//   guided photons  the direct image, and kept ghosts in mode GuidedPhotons: photons emitted only through the path's
 //            live cells and traced through its forced sequence, weighted by the Fresnel/coating
 //            factors.
 //   unguided the non-sequential photon tracer (Fresnel roulette, unbounded bounces), emitting

@@ -175,7 +175,10 @@ TEST(LightSampler, PointLightDeliversIntensityTimesSolidAngleThroughASquare) {
                 const EmittedRay e = sampler.rayThrough(a, b, 0.5, 0.5);
                 integral += e.powerPerMm2;
                 if (i % 37 == 0 && j % 41 == 0) {
-                    EXPECT_EQ(e.ray.originMm, position);
+                    // From the light, starting on its way (in front of the lens).
+                    EXPECT_EQ(e.sourceMm, position);
+                    EXPECT_LT(glm::length(glm::cross(e.ray.originMm - position, e.ray.direction)), 1e-9 * d);
+                    EXPECT_GE(glm::dot(e.ray.originMm - position, e.ray.direction), 0.0);
                     const glm::dvec2 ab = crossing(grid, e.ray.originMm, e.ray.direction);
                     EXPECT_NEAR(ab.x, a, 1e-9 * d);
                     EXPECT_NEAR(ab.y, b, 1e-9 * d);
@@ -210,8 +213,9 @@ TEST(LightSampler, DiskLightSamplesAreUniformOverTheDisk) {
         for (long i = 0; i < samples; ++i) {
             const double a = (2.0 * rng.uniform() - 1.0) * half, b = (2.0 * rng.uniform() - 1.0) * half;
             const EmittedRay e = sampler.rayThrough(a, b, rng.uniform(), rng.uniform());
-            // The ray starts at the sampled point of the disk and passes through (a, b).
-            const glm::dvec3 offset = e.ray.originMm - light.positionMm;
+            // The ray comes from the sampled point of the disk and passes through (a, b).
+            const glm::dvec3 offset = e.sourceMm - light.positionMm;
+            ASSERT_LT(glm::length(glm::cross(e.ray.originMm - e.sourceMm, e.ray.direction)), 1e-9 * glm::length(light.positionMm));
             ASSERT_NEAR(glm::dot(offset, n), 0.0, 1e-9 * glm::length(light.positionMm)) << "off the disk's plane";
             const double rho2 = glm::dot(offset, offset) / (light.radiusMm * light.radiusMm);
             ASSERT_LE(rho2, 1.0 + 1e-9) << "outside the disk";
@@ -312,7 +316,7 @@ TEST(LightSampler, EmissionDiskCoversEveryRayThroughTheFrontAperture) {
                     if (light.type == LightSpec::Type::Directional) {
                         direction = sampler.rayThrough(0.0, 0.0, u1, u2).ray.direction;
                     } else {
-                        source = sampler.rayThrough(0.0, 0.0, u1, u2).ray.originMm;
+                        source = sampler.rayThrough(0.0, 0.0, u1, u2).sourceMm;
                         direction = glm::normalize(p - source);
                     }
                     const glm::dvec2 ab = crossing(grid, p, direction);
