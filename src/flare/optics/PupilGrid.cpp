@@ -51,19 +51,22 @@ PupilGrid PupilGrid::forPoint(const LensSystem& lens, const glm::dvec3& sourceMm
     grid.fromPoint = true;
     grid.sourceMm = sourceMm;
     const double distanceMm = glm::length(vertexMm - sourceMm);
-    double maxSag = 0.0;
+    double maxSag = 0.0, aheadMm = 0.0;  // |sag|, and how far the surface reaches towards the light
     for (int k = 0; k <= 32; ++k) {
         const double r = first.semiApertureMm * k / 32.0;
         double sag = 0.0;
-        if (first.sagMm(r * r, &sag)) maxSag = std::max(maxSag, std::abs(sag));
+        if (!first.sagMm(r * r, &sag)) continue;
+        maxSag = std::max(maxSag, std::abs(sag));
+        aheadMm = std::max(aheadMm, -sag);
     }
-    // An aperture point lies within r0 + |sag|·sinθ of the central ray and within `reach` of the
-    // plane along it; the ray from the source through it crosses the plane at most
-    // D / (D − reach) times farther out (D: the source's distance from the plane).
+    // An aperture point lies within r0 + |sag|·sinθ of the central ray and at most `reach` ahead
+    // of the plane along it; the ray from the source through it crosses the plane at most
+    // D / (D − reach) times farther out (D: the source's distance from the plane; points behind
+    // the plane cross it nearer the centre).
     const double sinTheta = std::sqrt(std::max(0.0, 1.0 - grid.direction.z * grid.direction.z));
-    const double reachMm = maxSag + first.semiApertureMm * sinTheta;
-    if (!(distanceMm > reachMm + 1e-6))
-        throw std::invalid_argument("PupilGrid::forPoint: the source lies within the lens's front surface");
+    const double reachMm = aheadMm + first.semiApertureMm * sinTheta;
+    if (!(distanceMm > reachMm + 1e-6) || !(grid.direction.z > 0.0))
+        throw std::invalid_argument("PupilGrid::forPoint: the source is not in front of the lens's front surface");
     grid.halfSizeMm = 1.01 * (first.semiApertureMm + maxSag * sinTheta) * distanceMm / (distanceMm - reachMm) + 1e-3;
     // The most inclined ray of the window leans by up to α from the central one: start far enough
     // back that it too begins in front of the lens's first point.

@@ -13,6 +13,7 @@
 #include "flare/optics/EmbeddedLenses.h"
 #include "flare/optics/LensFile.h"
 #include "flare/optics/LensLibrary.h"
+#include "flare/optics/RealRays.h"
 #include "flare/scene/JsonTree.h"
 #include "flare/scene/SceneChecker.h"
 #include "flare/scene/SceneLights.h"
@@ -291,7 +292,9 @@ std::string_view defaultSceneText() { return kDefaultScene; }
 
 Scene defaultScene() { return parseSceneText(kDefaultScene, "<default scene>", ""); }
 
-LensSystem buildSceneLens(const Scene& scene) {
+namespace {
+
+LensSystem buildLensAtSceneState(const Scene& scene) {
     LensPrescription prescription = loadLens(scene.lens);  // its own errors name the lens file
     if (scene.coating) {
         // The scene's coating goes on every air–glass surface, replacing the lens's choices.
@@ -335,6 +338,28 @@ LensSystem buildSceneLens(const Scene& scene) {
     }
     state.fNumber = scene.lensState.fNumber;
     return build(scene.lensState.fNumber ? scene.lines.fNumber : 0, "f_number");
+}
+
+}  // namespace
+
+LensSystem buildSceneLens(const Scene& scene) {
+    LensSystem lens = buildLensAtSceneState(scene);
+    // A point or disk light sends its rays from where it is: it must lie in front of the lens's
+    // foremost point (a concave front surface's rim reaches ahead of its vertex), where the scene
+    // file's own check (z < 0) cannot see.
+    const double frontZMm = objectSpaceStartZMm(lens) + 1.0;
+    for (size_t k = 0; k < scene.lights.size(); ++k) {
+        const LightSpec& light = scene.lights[k];
+        if (light.type == LightSpec::Type::Directional) continue;
+        const glm::dvec3 n = light.diskNormal();
+        const double nearestZMm = light.positionMm.z + light.radiusMm * std::sqrt(std::max(0.0, 1.0 - n.z * n.z));
+        if (nearestZMm < frontZMm) continue;
+        throw InputError(scene.sourceFile, k < scene.lines.lights.size() ? scene.lines.lights[k] : 0,
+                         "lights[" + std::to_string(k) + "]: the light reaches z = " + formatNumber(nearestZMm) +
+                             " mm, but the lens's front surface reaches z = " + formatNumber(frontZMm) +
+                             " mm; a point or disk light must lie wholly in front of the lens");
+    }
+    return lens;
 }
 
 glm::dvec2 sensorSizeMm(const Scene& scene, const SensorSpec& lensSensor) {

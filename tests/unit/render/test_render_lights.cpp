@@ -17,6 +17,7 @@
 #include <boost/math/distributions/students_t.hpp>
 #include <gtest/gtest.h>
 
+#include "flare/core/Error.h"
 #include "flare/optics/PupilGrid.h"
 #include "flare/photons/Light.h"
 #include "flare/render/Render.h"
@@ -217,8 +218,41 @@ TEST(RenderLights, PointGridRaysFanFromTheSource) {
     const PupilGrid far = PupilGrid::forPoint(lens, -1e9 * direction);
     const Ray p = parallel.ray(3.0, -2.0), q = far.ray(3.0, -2.0);
     EXPECT_LT(glm::length(p.direction - q.direction), 1e-8);
-    // A source within the front surface's reach is refused.
-    EXPECT_THROW(PupilGrid::forPoint(lens, glm::dvec3(0.0, 0.0, -0.5)), std::invalid_argument);
+    // A source behind the front vertex is refused (a scene cannot place one there: buildSceneLens
+    // checks the light against the lens's foremost point).
+    EXPECT_THROW(PupilGrid::forPoint(lens, glm::dvec3(0.0, 0.0, 0.5)), std::invalid_argument);
+}
+
+// A point light between a concave front surface's rim and its vertex (z < 0, so the scene's own
+// check passes) is refused once the lens is known, naming the scene file and the light's line.
+TEST(RenderLights, LightWithinTheFrontSurfaceIsRefusedWithItsLine) {
+    const auto dir = test::processTempDir("flare_render_lights_test");
+    std::filesystem::create_directories(dir);
+    const std::string lens = (dir / "concave.lens").string();
+    std::ofstream(lens) << R"(name concave front
+focal_length_mm 50
+sensor width_mm=36 height_mm=24
+surfaces
+  -35.0    6.0    n=1.62     13
+  -20.0    3.0    air        13
+   stop    40     air        9
+)";
+    const std::string text = R"({
+  "lens": ")" + lens + R"(",
+  "sensor": { "resolution": [150, 100] },
+  "lights": [
+    { "type": "directional", "field_deg": [1, 1] },
+    { "type": "point", "position_mm": [0, 0, -1] }
+  ]
+})";
+    const Scene scene = parseSceneText(text, "concave.json", "");
+    try {
+        buildSceneLens(scene);
+        FAIL() << "a light behind the front surface's rim was accepted";
+    } catch (const InputError& e) {
+        EXPECT_EQ(e.line(), 6) << e.what();
+        EXPECT_NE(std::string(e.what()).find("front surface"), std::string::npos) << e.what();
+    }
 }
 
 }  // namespace
