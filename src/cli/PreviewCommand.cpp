@@ -3,6 +3,7 @@
 #include "Output.h"
 #include "StarburstReport.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <memory>
@@ -23,6 +24,10 @@ struct PreviewCommandOptions {
     bool layers = false;
     bool floatLayers = false;
     bool noDiffraction = false;
+    bool higher = false;
+    int passes = PreviewBudget::kDefaultPasses;
+    double timeS = 0.0;
+    long long seed = -1;  // −1: the scene's
     bool quiet = false;
 };
 
@@ -34,7 +39,19 @@ void run(const PreviewCommandOptions& o) {
     if (o.noDiffraction) scene.render.diffraction = false;
     const LensSystem lens = buildSceneLens(scene);
 
-    ScenePreview preview = previewScene(scene, lens, o.layers);
+    if (!o.quiet) {
+        // The analysis comes first and prints nothing of its own.
+        std::fprintf(stderr, "preview: analysing the ghosts of %zu light(s)...\n", scene.lights.size());
+        std::fflush(stderr);
+    }
+    PreviewBudget budget;
+    budget.passes = o.passes;
+    // --time counts from the command's start: what loading the scene took is spent already.
+    if (o.timeS > 0.0)
+        budget.timeS = std::max(1e-3, o.timeS - std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    if (o.seed >= 0) budget.seed = static_cast<std::uint64_t>(o.seed);
+    budget.higher = o.higher;
+    ScenePreview preview = previewScene(scene, lens, o.layers, budget);
     // The light's own image is 10⁴–10⁶ times brighter than its ghosts: the PNG is exposed for the
     // ghosts (two stops under the ghost layer's auto exposure, so that overlapping ghosts keep their
     // colour) and the light clips, as a photograph of a flare does.
@@ -62,10 +79,15 @@ void run(const PreviewCommandOptions& o) {
     if (!o.png.empty()) writePng(o.png, layers.front(), pngExposure);
 
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (!o.quiet)
-        std::fprintf(stderr, "preview: %s, %zu light(s), %d ghost renders (%d pruned), %ld rays, %.2f s\n",
-                     lens.name().c_str(), scene.lights.size(), preview.renderedGhosts, preview.prunedGhosts,
-                     preview.tracedRays, seconds);
+    if (!o.quiet) {
+        std::fprintf(stderr, "preview: %s, %zu light(s), %d ghosts by beams (%d pruned), %d passes, %lld beams, %ld rays, %.2f s\n",
+                     lens.name().c_str(), scene.lights.size(), preview.renderedGhosts, preview.prunedGhosts, preview.passes,
+                     static_cast<long long>(preview.beams), preview.tracedRays, seconds);
+        if (preview.ghostEstimatedError > 0.0)
+            std::fprintf(stderr, "preview: the ghost layer's estimated error %.2g%% (falls as --passes or --time grows)\n",
+                         100.0 * preview.ghostEstimatedError);
+        std::fprintf(stderr, "preview: left out (flare render has them): %s\n", preview.leftOut.c_str());
+    }
     if (!o.quiet && preview.starburst) printStarburst(*preview.starburst);
     std::printf("wrote %s%s%s\n", o.exr.c_str(), o.png.empty() ? "" : " and ", o.png.c_str());
 }
@@ -74,7 +96,8 @@ void run(const PreviewCommandOptions& o) {
 
 void addPreviewCommand(CLI::App& app) {
     auto o = std::make_shared<PreviewCommandOptions>();
-    CLI::App* preview = app.add_subcommand("preview", "noise-free ghost preview of a scene (EXR, optional PNG)");
+    CLI::App* preview =
+        app.add_subcommand("preview", "ghost preview of a scene: the final render's first passes without photons (EXR, optional PNG)");
     preview->add_option("SCENE", o->scene, "scene file (JSON); default: the embedded default scene");
     preview->add_option("-o,--output", o->exr, "EXR file to write")->required();
     preview->add_option("--png", o->png, "also write a tone-mapped PNG");
@@ -83,6 +106,16 @@ void addPreviewCommand(CLI::App& app) {
     preview->add_flag("--no-diffraction", o->noDiffraction,
                       "leave the light's own image geometric: no starburst (as the scene's render.diffraction: false)");
     preview->add_flag("--float-layers", o->floatLayers, "with --layers: store the per-ghost layers as exact 32-bit float");
+    preview->add_option("--passes", o->passes,
+                        "passes of the final render's beams (default " + std::to_string(PreviewBudget::kDefaultPasses) +
+                            "; the same seed and passes give the same image)")
+        ->check(CLI::Range(1, 1 << 20));
+    preview->add_option("--time", o->timeS,
+                        "instead of --passes: as many passes as fit in this many seconds of wall time, analysis included")
+        ->check(CLI::PositiveNumber);
+    preview->add_option("--seed", o->seed, "random seed of the beams (default: the scene's render.seed)")
+        ->check(CLI::Range(0LL, (1LL << 62)));
+    preview->add_flag("--higher", o->higher, "add the order-4 chains the final render guides (the `higher` layer)");
     preview->add_flag("--quiet", o->quiet, "no statistics on stderr");
     preview->callback([o] { run(*o); });
 }

@@ -178,14 +178,24 @@ Scene withDiffraction(const Scene& scene, std::optional<bool> diffraction) {
     return copy;
 }
 
-py::dict preview(const Scene& sceneIn, bool layers, int threads, std::optional<bool> diffraction) {
+py::dict preview(const Scene& sceneIn, bool layers, int threads, std::optional<bool> diffraction, int passes,
+                 double timeS, std::optional<long long> seed, bool higher) {
     const Scene scene = withDiffraction(sceneIn, diffraction);
+    // Checked as the CLI checks them.
+    if (passes < 1) throw py::value_error("passes: at least 1, got " + std::to_string(passes));
+    if (!(timeS >= 0.0)) throw py::value_error("time: 0 (use passes) or a positive number of seconds");
+    if (seed && *seed < 0) throw py::value_error("seed: a non-negative integer");
+    PreviewBudget budget;
+    budget.passes = passes;
+    budget.timeS = timeS;
+    if (seed) budget.seed = static_cast<std::uint64_t>(*seed);
+    budget.higher = higher;
     std::vector<ImageLayer> images;
     {
         py::gil_scoped_release release;
         const auto limit = limitThreads(threads);
         const LensSystem lens = buildSceneLens(scene);
-        ScenePreview result = previewScene(scene, lens, layers);
+        ScenePreview result = previewScene(scene, lens, layers, budget);
         images = previewLayers(result, layers);
     }
     return toDict(images);
@@ -432,8 +442,11 @@ PYBIND11_MODULE(flare, m) {
         "a scene from JSON text; relative lens and data paths are resolved against base_dir");
 
     m.def("preview", &preview, py::arg("scene"), py::kw_only(), py::arg("layers") = false, py::arg("threads") = 0,
-          py::arg("diffraction") = py::none(),
-          "The deterministic ghost preview, as `flare preview` (its per-ghost layers as with --float-layers): a dict "
+          py::arg("diffraction") = py::none(), py::arg("passes") = PreviewBudget::kDefaultPasses, py::arg("time") = 0.0,
+          py::arg("seed") = py::none(), py::arg("higher") = false,
+          "The ghost preview, as `flare preview`: the final render's first `passes` passes of beams without photons "
+          "(or as many as fit in `time` seconds; the same seed and passes give the same image; `higher` adds the "
+          "order-4 chains). Its per-ghost layers as with --float-layers: a dict "
           "of float32 arrays (height, width, 3), linear Rec.709 RGB in W/m2, keyed by EXR layer name: '' (the main "
           "image, with the starburst in place of the direct image when diffraction is on), then with layers=True "
           "'direct', 'starburst', 'ghost' and one per kept ghost ('ghost_03_07', ...). diffraction: None takes the "

@@ -526,10 +526,12 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
         c.tracer = std::make_shared<const PacketTracer>(BundleTracer(lens, lens.indicesAt(kLineDNm), reflections, true));
     }
     if (!componentCdf_.empty()) componentCdf_.back() = 1.0;
-    batches_.resize(options.batchesPerPass);
+    batches_.resize(options.tracePhotons ? options.batchesPerPass : 0);
 }
 
 Renderer::~Renderer() = default;
+
+const GhostReport& Renderer::ghostReport(int light) const { return lightStates_.at(static_cast<size_t>(light)).report; }
 
 void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
     out.hits.clear();
@@ -974,7 +976,7 @@ int Renderer::beamCount(int pass, size_t light, int slot) const {
 
 void Renderer::runPass() {
     const auto start = std::chrono::steady_clock::now();
-    const int batches = options_.batchesPerPass;
+    const int batches = static_cast<int>(batches_.size());
     std::vector<BeamJob> beamJobs;
     const int replicate = replicateOfPass(statistics_.passes);
     for (size_t l = 0; l < lightStates_.size(); ++l) {
@@ -1096,7 +1098,7 @@ std::uint64_t Renderer::fingerprint() const {
                         options_.correctionPhotonsPerBeam, options_.beamMeshLevel,
                         static_cast<int>(std::lround(options_.testBeamShiftPx * 1024.0)), options_.maxAnalysedChains,
                         options_.smoothNeighbours, options_.tabulatedReflectance ? 1 : 0,
-                        options_.strayLightSampling ? 1 : 0, film_.replicates()};
+                        options_.strayLightSampling ? 1 : 0, film_.replicates(), options_.tracePhotons ? 1 : 0};
     mix(ints, sizeof ints);
     for (const Component& c : components_) {
         mix(&c.light, sizeof c.light);

@@ -118,6 +118,10 @@ struct RenderOptions {
     int maxHigherOrderPaths = 512;
     int maxAnalysedChains = 2560;
 
+    // False: the passes trace the beams alone (the preview: the render's first passes without their
+    // photons). The film's normalisation is the same, so the beams' image is the render's.
+    bool tracePhotons = true;
+
     std::int64_t photonsPerPass() const { return static_cast<std::int64_t>(batchPhotons) * batchesPerPass; }
 };
 
@@ -218,6 +222,8 @@ public:
     const RenderOptions& options() const { return options_; }
     const RenderStatistics& statistics() const { return statistics_; }
     const std::vector<LightPlan>& lights() const { return lightPlans_; }
+    // A light's ghost analysis (its grid, direct path and paths, pruning as the render uses it).
+    const GhostReport& ghostReport(int light) const;
     const std::vector<PathTally>& tallies() const { return tallies_; }
     // One tally per layer kind (direct, ghost, higher, scatter), summed over lights and paths.
     const std::vector<PathTally>& layerTallies() const { return layerTallies_; }

@@ -1,12 +1,17 @@
 #include "flare/scene/ScenePreview.h"
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <set>
 #include <numbers>
 
 #include <glm/geometric.hpp>
 
 #include "flare/core/Spectrum.h"
 #include "flare/ghosts/GhostAnalysis.h"
+#include "flare/render/Render.h"
+#include "flare/scene/SceneRender.h"
 #include "flare/scene/SceneStarburst.h"
 
 namespace flare {
@@ -35,33 +40,68 @@ PreviewLight previewLight(const LightSpec& spec, int wavelengths) {
     return light;
 }
 
-ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGhostLayers) {
-    GhostAnalysisOptions analysis;
-    analysis.order = scene.render.ghostOrder;
-    analysis.includeSensor = scene.render.includeSensorGhosts;
-    analysis.keepShare = scene.render.pruneKeepShare;
-    analysis.relativeThreshold = scene.render.pruneRelativeThreshold;
-    PreviewOptions options;
-    options.widthPx = scene.sensor.widthPx;
-    options.heightPx = scene.sensor.heightPx;
-    options.perGhostLayers = perGhostLayers;
+ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGhostLayers, const PreviewBudget& budget) {
+    const auto start = std::chrono::steady_clock::now();
+    auto elapsedS = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+    // The final render's plan and beams, as `flare render` makes them with the same seed.
+    SceneRenderOverrides overrides;
+    overrides.perGhostLayers = perGhostLayers;
+    if (budget.seed) overrides.seed = *budget.seed;
+    RenderOptions options = sceneRenderOptions(scene, lens, overrides);
+    options.tracePhotons = false;
+    Renderer renderer(lens, scene.lights, options);
+    const int replicates = std::max(1, renderer.film().replicates());
+    double passS = 0.0;
+    for (int pass = 0;; ++pass) {
+        if (budget.timeS > 0.0) {
+            // Whole passes that end within the budget, and one per replicate at least (the
+            // error estimate); each pass costs about what the last one did.
+            if (pass >= replicates && elapsedS() + passS > budget.timeS) break;
+        } else if (pass >= std::max(budget.passes, 1)) {
+            break;
+        }
+        const double before = elapsedS();
+        renderer.runPass();
+        passS = elapsedS() - before;
+    }
 
     ScenePreview result;
-    result.widthPx = options.widthPx;
-    result.heightPx = options.heightPx;
-    for (const LightSpec& spec : scene.lights) {
-        const PreviewLight light = previewLight(spec, scene.render.previewWavelengths);
-        GhostReport report = analyseGhosts(lens, light.direction, analysis);
-        // The ghosts pruned at 550 nm but strong in this light's spectrum are drawn too.
-        keepSpectrallyStrongGhosts(lens, toSpectrum(spec.spectrum), analysis, report);
-        const PreviewImage image = renderPreview(lens, light, report, options);
-        add(result.direct, image.direct.xyz);
-        add(result.ghosts, image.ghosts.xyz);
-        for (const XyzLayer& layer : image.perGhost) add(result.perGhost[layer.name], layer.xyz);
-        for (long r : image.tracedRays) result.tracedRays += r;
-        result.renderedGhosts += static_cast<int>(image.tracedRays.size());
-        result.prunedGhosts += report.prunedCount;
+    result.widthPx = options.film.widthPx;
+    result.heightPx = options.film.heightPx;
+    result.ghosts = renderer.layerXyz(kLayerGhost);
+    if (budget.higher) result.higher = renderer.layerXyz(kLayerHigher);
+    result.passes = renderer.statistics().passes;
+    result.beams = renderer.statistics().beams;
+    result.ghostEstimatedError = renderer.hasErrorEstimate() ? renderer.estimatedRelativeError(kGroupGhost) : 0.0;
+    if (perGhostLayers) {
+        // The kept ghosts' own layers (the order-4 chains' only with `higher`).
+        std::set<std::string> chains;
+        for (const PathTally& t : renderer.tallies())
+            if (t.kind == PathTally::Kind::Ghost && t.path.reflections.size() > 2) chains.insert(t.path.label());
+        const std::vector<std::string>& names = renderer.layerNames();
+        for (int l = kFixedLayerCount; l < static_cast<int>(names.size()); ++l) {
+            if (!names[l].starts_with("ghost_") || (!budget.higher && chains.contains(names[l]))) continue;
+            result.perGhost[names[l]] = renderer.layerXyz(l);
+        }
     }
+    // Each light's own image: the mesh preview of its direct path alone.
+    PreviewOptions direct;
+    direct.widthPx = result.widthPx;
+    direct.heightPx = result.heightPx;
+    for (size_t l = 0; l < scene.lights.size(); ++l) {
+        GhostReport report = renderer.ghostReport(static_cast<int>(l));
+        for (GhostEstimate& g : report.ghosts) g.pruned = true;
+        const PreviewImage image =
+            renderPreview(lens, previewLight(scene.lights[l], scene.render.previewWavelengths), report, direct);
+        add(result.direct, image.direct.xyz);
+        const LightPlan& plan = renderer.lights()[l];
+        result.renderedGhosts += plan.beamGhosts;
+        result.prunedGhosts += plan.prunedGhosts;
+    }
+    result.tracedRays = renderer.statistics().beamRays;
+    result.leftOut = "scattering, the ghosts' parts the final render leaves to photons (pruned ghosts, rays outside the "
+                     "guide masks)";
+    if (!budget.higher) result.leftOut += ", the order-4 chains (`higher`)";
     if (scene.render.diffraction)
         result.starburst = sceneStarburst(scene, lens, result.direct, result.widthPx, result.heightPx);
     return result;
@@ -70,12 +110,14 @@ ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGh
 std::vector<ImageLayer> previewLayers(ScenePreview& preview, bool withLayers) {
     std::vector<float> total = preview.starburst ? preview.starburst->xyz : preview.direct;
     add(total, preview.ghosts);
+    if (!preview.higher.empty()) add(total, preview.higher);
     const int w = preview.widthPx, h = preview.heightPx;
     std::vector<ImageLayer> layers{rgbLayerFromXyz("", total, w, h)};
     if (withLayers) {
         layers.push_back(rgbLayerFromXyz("direct", preview.direct, w, h));
         if (preview.starburst) layers.push_back(rgbLayerFromXyz("starburst", preview.starburst->xyz, w, h));
         layers.push_back(rgbLayerFromXyz("ghost", preview.ghosts, w, h));
+        if (!preview.higher.empty()) layers.push_back(rgbLayerFromXyz("higher", preview.higher, w, h));
         for (auto& [name, xyz] : preview.perGhost) {
             layers.push_back(rgbLayerFromXyz(name, xyz, w, h));
             std::vector<float>().swap(xyz);

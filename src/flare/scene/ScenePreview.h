@@ -1,8 +1,14 @@
-// The deterministic ghost preview of a whole scene (Preview.h), as `flare preview` and the Python
-// module render it: every light analysed and previewed at the scene's lens state, resolution and
-// ghost settings, the layers summed over the lights.
+// The preview of a whole scene, as `flare preview` and the Python module render it: the final
+// render's first passes without its photons. Its ghosts are the render's beams (the same plan, the
+// same seed, the same beam sequences: what the render's first passes draw), so that the preview
+// is the render's image, sooner, and converges to it as its budget grows: the light's disk, its
+// spectrum and the film's kernel are integrated as the render integrates them. Each light's own
+// image is the deterministic mesh preview of its direct path (Preview.h), the starburst's input.
+// Left out, and said so: scattering, the paths the render leaves to photons (pruned ghosts, rays
+// outside the guide masks) and, unless asked, the order-4 chains (`higher`).
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <optional>
 #include <string>
@@ -22,24 +28,43 @@ namespace flare {
 // aperture) and, for a disk, the angular diameter it subtends.
 PreviewLight previewLight(const LightSpec& spec, int wavelengths);
 
+// How long the preview renders: `passes` passes of the final render's beams, or (timeS > 0) as
+// many as fit in timeS seconds of wall time from the call, analysis included (at least one per
+// replicate; the pass count then depends on the machine, and is reported).
+struct PreviewBudget {
+    static constexpr int kDefaultPasses = 2;  // about a second on the default scene (docs/BENCHMARKS.md)
+    int passes = kDefaultPasses;
+    double timeS = 0.0;
+    std::optional<std::uint64_t> seed;  // default: the scene's render.seed
+    bool higher = false;                // add the guided order-4 chains (the `higher` layer)
+};
+
 // Sensor irradiance in CIE XYZ (XyzLayer's layout), summed over the scene's lights.
 struct ScenePreview {
     int widthPx = 0, heightPx = 0;
-    std::vector<float> direct, ghosts;
+    std::vector<float> direct, ghosts, higher;
     std::map<std::string, std::vector<float>> perGhost;  // with per-ghost layers: by path label
     // With the scene's render.diffraction: the direct image diffracted (SceneStarburst.h).
     std::optional<StarburstImage> starburst;
     long tracedRays = 0;
     int renderedGhosts = 0, prunedGhosts = 0;  // summed over the lights
+    int passes = 0;
+    std::int64_t beams = 0;
+    // The ghost layer's estimated relative L2 error (the spread of the beams' replicates; 0 before
+    // every replicate has a pass).
+    double ghostEstimatedError = 0.0;
+    std::string leftOut;  // what the preview does not render, in words
 };
 
 // `lens` is built at the scene's state (buildSceneLens). The starburst is computed when the
 // scene's render.diffraction is set.
-ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGhostLayers);
+ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGhostLayers,
+                          const PreviewBudget& budget = {});
 
 // The preview's images in linear Rec.709 RGB, as `flare preview` writes them: the main image ""
-// (the starburst, or the direct image without diffraction, + ghosts), then with `withLayers`
-// "direct", "starburst" (with diffraction), "ghost" and the per-ghost layers by label.
+// (the starburst, or the direct image without diffraction, + ghosts, + higher when rendered), then
+// with `withLayers` "direct", "starburst" (with diffraction), "ghost", "higher" (when rendered) and
+// the per-ghost layers by label.
 // Each per-ghost XYZ buffer is released once converted (one copy at a time).
 std::vector<ImageLayer> previewLayers(ScenePreview& preview, bool withLayers);
 
