@@ -203,6 +203,9 @@ void printProgress(const Renderer& renderer, double fraction, double targetError
 }
 
 int run(const RenderCommandOptions& o) {
+    // --time is wall time from here: loading, the analysis and the passes.
+    const auto start = std::chrono::steady_clock::now();
+    auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
     std::unique_ptr<tbb::global_control> threads;
     if (o.threads > 0)
         threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, o.threads);
@@ -239,7 +242,13 @@ int run(const RenderCommandOptions& o) {
     if (o.interiorAlbedo >= 0.0) overrides.interiorAlbedo = o.interiorAlbedo;
     const RenderOptions options = sceneRenderOptions(scene, lens, overrides);
 
+    if (!o.quiet) {
+        // The analysis prints nothing of its own and can take seconds: say what is happening.
+        std::fprintf(stderr, "render: analysing the ghosts of %zu light(s)...", scene.lights.size());
+        std::fflush(stderr);
+    }
     Renderer renderer(lens, scene.lights, options);
+    if (!o.quiet) std::fprintf(stderr, " %.1f s\n", elapsed());
     const std::string checkpoint = o.checkpoint.empty() ? o.exr + ".checkpoint" : o.checkpoint;
     if (!o.checkpoint.empty() && std::filesystem::exists(o.checkpoint)) {
         renderer.loadCheckpoint(o.checkpoint);
@@ -251,19 +260,20 @@ int run(const RenderCommandOptions& o) {
     const RenderStopRule stop = RenderStopRule::make(scene, options, o.photons > 0 ? o.photons : 0, o.timeS, o.targetError);
     const std::int64_t perPass = options.photonsPerPass();
 
-    const auto start = std::chrono::steady_clock::now();
-    auto lastCheckpoint = start;
-    auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+    auto lastCheckpoint = std::chrono::steady_clock::now();
     bool interrupted = false;
-    double lastPrintS = -1.0;
+    double lastPrintS = -1.0, passS = 0.0;
     for (;;) {
-        if (stop.reached(renderer, elapsed())) break;
+        // A pass that would end past --time is not started (each costs about what the last did).
+        if (stop.reached(renderer, elapsed() + passS)) break;
         if (gInterrupted.load() && renderer.statistics().passes == 0) {
             std::signal(SIGINT, previous);
             std::fprintf(stderr, "interrupted before the first pass: nothing written\n");
             return 130;
         }
+        const double passStartS = elapsed();
         renderer.runPass();
+        passS = elapsed() - passStartS;
         // The progress line (whose error estimate scans the film) at most four times a second.
         if (!o.quiet && elapsed() - lastPrintS >= 0.25) {
             printProgress(renderer, progressFraction(renderer, stop.passesWanted * perPass, o.timeS, o.targetError, elapsed()),
@@ -293,6 +303,7 @@ int run(const RenderCommandOptions& o) {
 
     // The light's own image, diffracted: in the main image in place of the direct layer.
     std::optional<StarburstImage> starburst;
+    if (!o.quiet) std::fprintf(stderr, "render: %s...\n", scene.render.diffraction ? "diffraction and writing" : "writing");
     if (scene.render.diffraction)
         starburst = sceneStarburst(scene, lens, renderer.layerXyz(kLayerDirect), options.film.widthPx,
                                    options.film.heightPx);
