@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
-#include <functional>
 #include <fstream>
 #include <memory>
 #include <numbers>
@@ -18,12 +17,13 @@
 
 #include "flare/core/Error.h"
 #include "flare/core/Random.h"
-#include "flare/core/ScrambledSobol.h"
 #include "flare/ghosts/GuideMask.h"
 #include "flare/optics/PacketTracer.h"
 #include "flare/optics/SequentialTracer.h"
 #include "flare/photons/LightSampler.h"
-#include "flare/render/GhostBeam.h"
+#include "flare/render/BeamStrategy.h"
+#include "flare/render/RenderPlan.h"
+#include "flare/render/SensorHit.h"
 
 namespace flare {
 
@@ -54,100 +54,16 @@ constexpr double kMm2PerM2 = 1e6;
 // ghost's landings by up to about a millimetre on a full-frame sensor.
 constexpr int kGuideGrowCells = 4;
 constexpr double kGuideSensorMargin = 0.1;
-// A beam-rendered path's wavelengths are drawn in proportion to the light's spectrum times the
-// throughput of one ray of the path, plus this share of its mean: coatings make a ghost's colour,
-// and the floor keeps every wavelength possible.
-constexpr double kSpectralFloor = 0.1;
-constexpr int kBeamDimensions = 5;  // wavelength, direction (2), film-kernel jitter (2)
-constexpr int kBeamTableIntervals = 128;
-// The largest share of its layer's power a single beam is expected to carry (a floor under the
-// weak paths' beam rates).
-constexpr double kMaxBeamShare = 0.05;
-// The share of the beam budget that may go to giving every beam-rendered path of a layer a beam
-// per pass (per layer: the ghosts, the order-4 chains).
-constexpr double kFloorBudgetShare = 0.1;
-
-struct Hit {
-    float xMm, yMm;
-    float xyz[3];
-    std::int16_t layer;
-    std::int32_t ghostLayer;  // −1: none
-};
-
-// Shirley and Chiu's concentric map of the unit square onto the unit disk, as (r², φ / 2π): the
-// uniforms LightSampler::rayThrough takes for a point of the light's disk. It keeps the
-// stratification of the square (neighbouring strata map to neighbouring parts of the disk).
-glm::dvec2 concentricToPolarUniforms(double s, double t) {
-    const double a = 2.0 * s - 1.0, b = 2.0 * t - 1.0;
-    if (a == 0.0 && b == 0.0) return {0.0, 0.0};
-    double r = 0.0, phi = 0.0;
-    if (std::abs(a) > std::abs(b)) {
-        r = a;
-        phi = 0.25 * std::numbers::pi * (b / a);
-    } else {
-        r = b;
-        phi = 0.5 * std::numbers::pi - 0.25 * std::numbers::pi * (a / b);
-    }
-    if (r < 0.0) r = -r, phi += std::numbers::pi;
-    double u2 = phi / (2.0 * std::numbers::pi);
-    u2 -= std::floor(u2);
-    return {std::min(r * r, std::nextafter(1.0, 0.0)), std::min(u2, std::nextafter(1.0, 0.0))};
-}
-
 }  // namespace
-
-struct Renderer::LightState {
-    LightSampler sampler;
-    WavelengthSampler wavelengths;
-    GhostReport report;
-    // Slots: 0 the direct image, 1..G the enumerated ghosts in report order.
-    std::unordered_map<PathKey, int> slotOfKey;
-    std::vector<GuideMask> masks;           // per slot; empty where the slot is not guided
-    std::vector<int> ghostLayer;            // per slot: per-ghost film layer, −1 if none
-    std::vector<PathStrategy> strategy;     // per slot
-    std::vector<int> layer;                 // per slot: the fixed layer its light lands in
-    // Beam-rendered slots: the wavelength sampler weighted by the path's throughput, and the
-    // expected number of beams per pass (a pass draws its floor, plus one more with the
-    // probability of its fraction, and weights every beam by one over the expectation).
-    std::vector<std::unique_ptr<WavelengthSampler>> beamWavelengths;
-    std::vector<double> beamRate;
-    int tallyOffset = 0;                    // tallies: offset + slot, then higher, then scatter
-    int slots = 0;
-
-    int higherTally() const { return tallyOffset + slots; }
-    int scatterTally() const { return tallyOffset + slots + 1; }
-};
-
-struct Renderer::Component {
-    int light = 0;
-    int slot = -1;  // −1: the unguided tracer
-    double probability = 0.0;
-    // A guided path's forced sequence in SIMD packets, its photons at their own wavelengths.
-    std::shared_ptr<const PacketTracer> tracer;
-};
 
 constexpr int kScatterSources = static_cast<int>(ScatterSource::Count) - 1;
 
 struct Renderer::BatchResult {
-    std::vector<Hit> hits;
+    std::vector<renderer::SensorHit> hits;
     std::vector<double> tallySums;  // Σ Y power (W) per tally
     double layerSums[kFixedLayerCount] = {};
     double sourceSums[kScatterSources] = {};
     RenderStatistics statistics;    // photon counts and fates of this batch
-};
-
-// One beam of one path in one pass, and what it produced.
-struct Renderer::BeamJob {
-    int light = 0, slot = 0, index = 0;  // index: the beam's number within the path's pass
-    int replicate = 0;
-    std::uint64_t sequenceIndex = 0;     // the beam's point in its replicate's sequence
-    GhostBeam beam;
-    glm::dvec2 jitterPx{0.0};
-    glm::dvec3 scale{0.0};     // film units per unit irradiance × pupil area
-    std::uint64_t seed = 0;    // the small triangles' random points
-    std::vector<Hit> hits;     // correction photons (+) and their twins (−)
-    double powerY = 0.0;       // the beam's Y power on the sensor plus its corrections (W)
-    std::int64_t photons = 0;
 };
 
 Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights, const RenderOptions& options)
@@ -168,12 +84,10 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
     // Beams are splatted with the fixed 1-px tent: other kernels leave the ghosts to photons.
     const bool beamsPossible = options.mode == RenderOptions::Mode::Guided &&
                                options.film.kernel == FilmSettings::Kernel::Fixed && options.film.radiusPx <= 1.0;
-    const FilmFrame frame{options.film.widthPx, options.film.heightPx, options.film.widthMm, options.film.heightMm,
-                          options.film.widthMm / options.film.widthPx};
 
     std::vector<double> lightWeight;
     for (const LightSpec& spec : lights) {
-        LightState state{LightSampler(spec, lens), WavelengthSampler(toSpectrum(spec.spectrum)),
+        renderer::LightState state{LightSampler(spec, lens), WavelengthSampler(toSpectrum(spec.spectrum)),
                          analyseGhosts(lens, spec.travelDirection(), options.analysis), {}, {}, {}, {}, {}, {}, {}, 0, 0};
         LightPlan plan;
         plan.name = spec.name;
@@ -337,69 +251,17 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
                 if (state.masks[slot].empty()) return;
                 state.strategy[slot] = PathStrategy::Photons;
                 if (slot == 0 || !beamLight || estimate.lattice.empty()) return;
-                // Wavelengths where the path's coatings reflect (its ray's throughput at every
-                // nanometre), and the power it carries in this light.
-                const PathSpectrum& pathShape = spectra[slot - 1];
-                std::vector<double> importance = pathShape.throughput;
-                if (importance.empty()) importance.assign(kWavelengthBins, 0.0);
-                spectralPower[slot] = estimate.powerFraction * pathShape.ratio;
-                double mean = 0.0;
-                for (double v : importance) mean += v / kWavelengthBins;
-                if (!(mean > 0.0)) std::fill(importance.begin(), importance.end(), 1.0), mean = 1.0;
-                for (double& v : importance) v += kSpectralFloor * mean;
-                const Spectrum spectrum = toSpectrum(spec.spectrum);
-                state.beamWavelengths[slot] = std::make_unique<WavelengthSampler>(spectrum, importance);
-                // A beam at the analysis's wavelength and the light's central direction measures
-                // what the path's beams will cost and how uneven its image is (Σ power² / area:
-                // its squared L2 norm for a point source, which caustics dominate); beams then go
-                // to the paths in proportion to √(that / cost), which minimises the summed
-                // variance for a given time if a beam's variance follows that norm.
-                const BundleTracer probeTracer(lens, indices, estimate.path.reflections);
-                PupilRemeshOptions remesh;
-                remesh.minLevel = options.beamMeshLevel;
-                const GhostBeam probe = GhostBeam::build(probeTracer, report.grid, estimate.lattice, state.masks[slot],
-                                                         frame, remesh);
-                if (probe.empty()) return;
-                double squaredNorm = 0.0, imageAreaPx2 = 0.0;
-                for (const BeamTriangle& t : probe.triangles()) {
-                    const double power = t.pupilAreaMm2 * (t.throughput[0] + t.throughput[1] + t.throughput[2]) / 3.0;
-                    const double area = t.small ? 1.0 : std::max(t.imageAreaPx2, 1.0);
-                    squaredNorm += power * power / area;
-                    imageAreaPx2 += t.small ? 0.0 : t.imageAreaPx2;
-                }
-                // Cost in units of a traced ray: rasterising a pixel costs about a tenth of one.
-                const double cost = static_cast<double>(probe.tracedRays()) + 0.1 * imageAreaPx2 +
-                                    options.correctionPhotonsPerBeam * 2.0;
-                beamWeight[slot] = std::sqrt(squaredNorm / cost) * (spectralPower[slot] / estimate.powerFraction);
+                renderer::BeamProbe probe = renderer::probeBeamPath(lens, indices, state, slot, spectra[slot - 1],
+                                                                    toSpectrum(spec.spectrum), options);
+                spectralPower[slot] = probe.spectralPower;
+                state.beamWavelengths[slot] = std::move(probe.wavelengths);
+                if (!probe.beams) return;
+                beamWeight[slot] = probe.weight;
                 state.strategy[slot] = PathStrategy::Beams;
             });
         }
-        // Rates: the budget split by weight, with two floors. A weak path drawn with a tiny rate
-        // would appear in a few passes only, each time weighted by one over that rate:
-        // heavy-tailed, and a short render that drew none would see no spread and report its
-        // part as 0 ± 0. So every path of a layer (ghosts; order-4 chains) gets one beam per
-        // pass, or, when the layer has too many paths for that, an equal share of
-        // kFloorBudgetShare of the budget; and no beam is expected to carry more than
-        // kMaxBeamShare of its layer's power (over the spectrum), a floor that sums to at most
-        // 1 / kMaxBeamShare beams per layer.
-        double totalBeamWeight = 0.0;
-        double layerPower[kFixedLayerCount] = {};
-        int layerPaths[kFixedLayerCount] = {};
-        for (int slot = 1; slot < state.slots; ++slot) {
-            totalBeamWeight += beamWeight[slot];
-            if (state.strategy[slot] != PathStrategy::Beams) continue;
-            layerPower[state.layer[slot]] += spectralPower[slot];
-            ++layerPaths[state.layer[slot]];
-        }
-        for (int slot = 1; slot < state.slots; ++slot)
-            if (state.strategy[slot] == PathStrategy::Beams) {
-                const int layer = state.layer[slot];
-                const double everyPathFloor = std::min(1.0, kFloorBudgetShare * options.beamsPerPass / layerPaths[layer]);
-                const double shareFloor = spectralPower[slot] / (kMaxBeamShare * layerPower[layer]);
-                state.beamRate[slot] = std::max({options.beamsPerPass * beamWeight[slot] / totalBeamWeight,
-                                                 shareFloor, everyPathFloor});
-                ++plan.beamGhosts;
-            }
+        state.beamRate = renderer::beamRates(state, beamWeight, spectralPower, options.beamsPerPass);
+        for (int slot = 1; slot < state.slots; ++slot) plan.beamGhosts += state.strategy[slot] == PathStrategy::Beams;
         for (size_t g = 0; g < report.ghosts.size(); ++g) {
             const bool chain = report.ghosts[g].path.reflections.size() > 2;
             if (report.ghosts[g].pruned) {
@@ -466,7 +328,7 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
     film_.addVarianceGroup({kLayerGhost, kLayerHigher, kLayerScatter});
     // Beams continue their sequences from pass to pass: the error is estimated from replicates.
     bool anyBeams = false;
-    for (const LightState& light : lightStates_) {
+    for (const renderer::LightState& light : lightStates_) {
         beamsDrawn_.emplace_back(static_cast<size_t>(light.slots) * options.beamReplicates, 0);
         for (int slot = 1; slot < light.slots; ++slot) anyBeams = anyBeams || light.beamRate[slot] > 0.0;
     }
@@ -481,7 +343,7 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
     for (size_t l = 0; l < lightStates_.size() && totalWeight > 0.0; ++l) {
         const double share = lightWeight[l] / totalWeight;
         if (share == 0.0) continue;
-        const LightState& state = lightStates_[l];
+        const renderer::LightState& state = lightStates_[l];
         if (options.mode == RenderOptions::Mode::Naive) {
             components_.push_back({static_cast<int>(l), -1, share});
             continue;
@@ -512,11 +374,11 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
                 components_.push_back({static_cast<int>(l), slot, share * ghostShare * ghostWeight[slot] / ghostTotal});
     }
     double cumulative = 0.0;
-    for (const Component& c : components_) componentCdf_.push_back(cumulative += c.probability);
+    for (const renderer::PhotonComponent& c : components_) componentCdf_.push_back(cumulative += c.probability);
     // (Its steps do not depend on the wavelength it is built at: each photon refracts at its own.)
-    for (Component& c : components_) {
+    for (renderer::PhotonComponent& c : components_) {
         if (c.slot < 0) continue;
-        const LightState& state = lightStates_[c.light];
+        const renderer::LightState& state = lightStates_[c.light];
         const std::span<const int> reflections =
             c.slot == 0 ? std::span<const int>() : std::span<const int>(state.report.ghosts[c.slot - 1].path.reflections);
         c.tracer = std::make_shared<const PacketTracer>(BundleTracer(lens, lens.indicesAt(kLineDNm), reflections, true));
@@ -648,8 +510,8 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
             if (!landing.ok()) continue;
             const glm::dvec2& p = landing.sensorMm;
             if (std::abs(p.x) > halfW || std::abs(p.y) > halfH) continue;
-            const Component& component = components_[g.component];
-            const LightState& light = lightStates_[component.light];
+            const renderer::PhotonComponent& component = components_[g.component];
+            const renderer::LightState& light = lightStates_[component.light];
             score(light.layer[component.slot], light.ghostLayer[component.slot], light.tallyOffset + component.slot, p,
                   g.xyzWeight * (g.weight * landing.throughput));
         }
@@ -662,7 +524,7 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
         for (size_t i = 0; i < pending.size(); ++i) {
             const Pending& photon = pending[i];
             const PhotonHistory& history = histories[i];
-            const LightState& light = lightStates_[photon.light];
+            const renderer::LightState& light = lightStates_[photon.light];
             const double weight = photon.weight;
             stats.nullCollisions += history.nullCollisions;
             stats.realCollisions += history.realCollisions;
@@ -709,8 +571,8 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
         const size_t c = std::min(components_.size() - 1,
                                   static_cast<size_t>(std::upper_bound(componentCdf_.begin(), componentCdf_.end(), uComponent) -
                                                       componentCdf_.begin()));
-        const Component& component = components_[c];
-        const LightState& light = lightStates_[component.light];
+        const renderer::PhotonComponent& component = components_[c];
+        const renderer::LightState& light = lightStates_[component.light];
         double pdfPerNm = 0.0;
         const double wavelengthNm = light.wavelengths.sample(rng.uniform(), &pdfPerNm);
         const glm::dvec3 xyzWeight = light.wavelengths.xyzWeight(wavelengthNm, pdfPerNm);
@@ -770,132 +632,15 @@ void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
     traceGuided();
 }
 
-void Renderer::traceBeam(BeamJob& job) const {
-    const LightState& light = lightStates_[job.light];
-    const GhostEstimate& estimate = light.report.ghosts[job.slot - 1];
-    const GuideMask& mask = light.masks[job.slot];
-    const double beams = light.beamRate[job.slot];
-    const std::uint64_t pass = static_cast<std::uint64_t>(statistics_.passes);
-    const std::uint64_t path = (static_cast<std::uint64_t>(job.light) << 20) ^ static_cast<std::uint64_t>(job.slot);
-    // The beam's sample: the next point of its path's sequence in its replicate (every path and
-    // replicate scrambled independently), so a render's beams of a path are one stratified
-    // sequence per replicate, not a fresh set per pass.
-    double u[kBeamDimensions];
-    const ScrambledSobol points(kBeamDimensions, mixBits(options_.seed ^ 0x5eedbea5u) ^
-                                                     mixBits((static_cast<std::uint64_t>(job.replicate) << 40) ^ path));
-    points.point(job.sequenceIndex, u);
-    const std::uint64_t stream = (pass << 32) ^ path;
-    Rng rng(options_.seed, (stream << 16) ^ static_cast<std::uint64_t>(job.index) ^ 0xbea7000000000000ull);
-
-    double pdfPerNm = 0.0;
-    const WavelengthSampler& wavelengths = *light.beamWavelengths[job.slot];
-    const double wavelengthNm = wavelengths.sample(u[0], &pdfPerNm);
-    const glm::dvec3 xyzWeight = wavelengths.xyzWeight(wavelengthNm, pdfPerNm);
-    const glm::dvec2 lightU = concentricToPolarUniforms(u[1], u[2]);
-    const EmittedRay central = light.sampler.rayThrough(0.0, 0.0, lightU.x, lightU.y);
-    // (A test's deliberate error: the jitter moves the sampled image, so a shifted jitter shifts it.)
-    job.jitterPx = tentJitter(u[3], u[4]) - glm::dvec2(options_.testBeamShiftPx, 0.0);
-    job.seed = rng.next();
-
-    const LensSystem& lens = *lens_;
-    const SpectralIndices indices = lens.indicesAt(wavelengthNm);
-    // Coating tables for this one wavelength: coarse ones build in a fraction of a millisecond and
-    // agree with the exact response to a few 1e-4 at worst (test_bundle_tracer.cpp), far below the
-    // mesh's own error. Only the path's own interfaces (the whole lens's cost several times as
-    // much), with slopes from the values (one response per point instead of three: they were a
-    // tenth of a default render; the interpolant moves by < 1e-5 relative).
-    const std::vector<InterfaceTables::Interface> interfaces =
-        BundleTracer(lens, indices, estimate.path.reflections, false).interfaces();
-    const InterfaceTables tables(lens, indices, kBeamTableIntervals, interfaces, true);
-    const BundleTracer tracer(lens, indices, estimate.path.reflections, true, &tables);
-    PupilGrid grid = light.report.grid;
-    grid.direction = central.ray.direction;
-    const FilmFrame frame{options_.film.widthPx, options_.film.heightPx, options_.film.widthMm, options_.film.heightMm,
-                          options_.film.widthMm / options_.film.widthPx};
-    PupilRemeshOptions remesh;
-    remesh.minLevel = options_.beamMeshLevel;
-    // Guided paths own only unscattered light: with dust, grease or bulk media every vertex's
-    // throughput carries its probability of crossing them clear (ratio tracking in grids: an
-    // unbiased estimate, so the beam stays an unbiased estimate of its piecewise-linear map).
-    const bool clearWeight = tracer_.hasContamination() || tracer_.hasMedia();
-    SequentialPath sequence;
-    sequence.reflections = estimate.path.reflections;
-    std::vector<glm::dvec3> pathPoints;
-    std::vector<int> pathSurfaces;
-    TraceOptions traceOptions;
-    if (clearWeight) {
-        traceOptions.pathPointsMm = &pathPoints;
-        traceOptions.pathSurfaces = &pathSurfaces;
-    }
-    const std::unique_ptr<PhotonTracer::Scratch> scratch = tracer_.makeScratch();
-    std::function<double(const glm::dvec2&)> clear;
-    if (clearWeight)
-        clear = [&](const glm::dvec2& pupilMm) {
-            pathPoints.clear();
-            pathSurfaces.clear();
-            const TraceResult r = tracePath(lens, indices, grid.ray(pupilMm.x, pupilMm.y), sequence, traceOptions);
-            return r.ok() ? tracer_.clearTransmittance(pathPoints, pathSurfaces, wavelengthNm, rng, *scratch) : 1.0;
-        };
-    job.beam = GhostBeam::build(tracer, grid, estimate.lattice, mask, frame, remesh, clear);
-
-    // Film units: the pass's image is its accumulated power over photonsPerPass (the film's
-    // divisor), and the path's estimate is the mean of its beams.
-    const double perBeam = static_cast<double>(options_.photonsPerPass()) / beams;  // beams: the expectation
-    job.scale = xyzWeight * (central.powerPerMm2 * perBeam);
-    job.powerY = job.beam.powerOnSensor() * central.powerPerMm2 * xyzWeight.y / static_cast<double>(beams);
-
-    // Correction photons: the same wavelength and direction, pupil points stratified over the
-    // mask; each photon adds itself and subtracts its twin.
-    const int photons = options_.correctionPhotonsPerBeam;
-    if (photons <= 0 || job.beam.empty()) return;
-    const double halfW = 0.5 * lens.sensor().widthMm, halfH = 0.5 * lens.sensor().heightMm;
-    const double perPhoton = perBeam / photons;
-    const glm::dvec3 base = xyzWeight * (mask.areaMm2() * perPhoton);
-    const int layer = light.layer[job.slot];
-    const int ghostLayer = light.ghostLayer[job.slot];
-    auto hit = [&](const glm::dvec2& sensorMm, const glm::dvec3& xyz) {
-        job.hits.push_back({static_cast<float>(sensorMm.x), static_cast<float>(sensorMm.y),
-                            {static_cast<float>(xyz.x), static_cast<float>(xyz.y), static_cast<float>(xyz.z)},
-                            static_cast<std::int16_t>(layer), ghostLayer});
-    };
-    double correctionY = 0.0;
-    for (int i = 0; i < photons; ++i) {
-        const glm::dvec2 ab = mask.sample((i + rng.uniform()) / photons, rng.uniform(), rng.uniform());
-        const EmittedRay emitted = light.sampler.rayThrough(ab.x, ab.y, lightU.x, lightU.y);
-        ++job.photons;
-        pathPoints.clear();
-        pathSurfaces.clear();
-        const TraceResult result = tracePath(lens, indices, emitted.ray, sequence, traceOptions);
-        if (result.ok()) {
-            const glm::dvec3& p = result.ray.originMm;
-            if (std::abs(p.x) <= halfW && std::abs(p.y) <= halfH) {
-                const double clear =
-                    clearWeight ? tracer_.clearTransmittance(pathPoints, pathSurfaces, wavelengthNm, rng, *scratch) : 1.0;
-                const glm::dvec3 xyz = base * (emitted.powerPerMm2 * result.throughput * clear);
-                hit({p.x, p.y}, xyz);
-                correctionY += xyz.y;
-            }
-        }
-        BeamTwin twin;
-        if (job.beam.twin(ab, &twin)) {
-            const glm::dvec2 sensorMm = frame.toSensorMm(twin.pixel);
-            const glm::dvec3 xyz = -base * (central.powerPerMm2 * twin.throughput);
-            hit(sensorMm, xyz);
-            correctionY += xyz.y;
-        }
-    }
-    job.powerY += correctionY / static_cast<double>(options_.photonsPerPass());
-}
-
-void Renderer::merge(const std::vector<BatchResult>& batches, const std::vector<BeamJob>& beams) {
+void Renderer::merge(const std::vector<BatchResult>& batches, const std::vector<renderer::BeamJob>& beams) {
     const int bandCount = film_.bandCount();
     const int width = options_.film.widthPx;
     // Every hit, by the bands its kernel touches (a kernel near a band's edge reaches two).
     struct Ref {
-        const Hit* hit;
+        const renderer::SensorHit* hit;
     };
     std::vector<std::vector<Ref>> byBand(bandCount);
-    auto bucket = [&](const Hit& hit) {
+    auto bucket = [&](const renderer::SensorHit& hit) {
         const glm::dvec2 sensorMm(hit.xMm, hit.yMm);
         const double row = film_.toPixel(sensorMm).y;
         const double power = Film::kernelPower(glm::dvec3(hit.xyz[0], hit.xyz[1], hit.xyz[2]));
@@ -906,9 +651,9 @@ void Renderer::merge(const std::vector<BatchResult>& batches, const std::vector<
         for (int b = first; b <= last; ++b) byBand[b].push_back({&hit});
     };
     for (const BatchResult& batch : batches)
-        for (const Hit& hit : batch.hits) bucket(hit);
-    for (const BeamJob& job : beams)
-        for (const Hit& hit : job.hits) bucket(hit);
+        for (const renderer::SensorHit& hit : batch.hits) bucket(hit);
+    for (const renderer::BeamJob& job : beams)
+        for (const renderer::SensorHit& hit : job.hits) bucket(hit);
 
     const bool perGhost = options_.perGhostLayers;
     tbb::parallel_for(tbb::blocked_range<int>(0, bandCount, 1), [&](const tbb::blocked_range<int>& range) {
@@ -916,7 +661,7 @@ void Renderer::merge(const std::vector<BatchResult>& batches, const std::vector<
         std::vector<double> rows[2], own;
         for (int band = range.begin(); band != range.end(); ++band) {
             for (const Ref& ref : byBand[band]) {
-                const Hit& hit = *ref.hit;
+                const renderer::SensorHit& hit = *ref.hit;
                 const glm::dvec2 p(hit.xMm, hit.yMm);
                 const glm::dvec3 xyz(hit.xyz[0], hit.xyz[1], hit.xyz[2]);
                 film_.splatInBand(band, hit.layer, p, xyz);
@@ -927,8 +672,8 @@ void Renderer::merge(const std::vector<BatchResult>& batches, const std::vector<
             for (auto& r : rows) r.assign(bandValues, 0.0);
             bool touched[2] = {false, false};
             for (size_t j = 0; j < beams.size();) {
-                const BeamJob& first = beams[j];
-                const LightState& light = lightStates_[first.light];
+                const renderer::BeamJob& first = beams[j];
+                const renderer::LightState& light = lightStates_[first.light];
                 const int target = light.layer[first.slot] == kLayerHigher ? 1 : 0;
                 const int ghostLayer = perGhost ? light.ghostLayer[first.slot] : -1;
                 if (ghostLayer >= 0) own.assign(bandValues, 0.0);
@@ -950,28 +695,21 @@ void Renderer::merge(const std::vector<BatchResult>& batches, const std::vector<
 }
 
 int Renderer::beamCount(int pass, size_t light, int slot) const {
-    // The expected number's floor, and one more with the probability of its fraction (the
-    // estimate divides by the expectation: unbiased).
-    const double rate = lightStates_[light].beamRate[slot];
-    if (!(rate > 0.0)) return 0;
-    Rng countRng(options_.seed ^ 0xc0c0a0a0u,
-                 (static_cast<std::uint64_t>(pass) << 32) ^ (static_cast<std::uint64_t>(light) << 20) ^
-                     static_cast<std::uint64_t>(slot));
-    return static_cast<int>(rate) + (countRng.uniform() < rate - std::floor(rate) ? 1 : 0);
+    return renderer::beamCount(options_.seed, lightStates_[light].beamRate[slot], pass, light, slot);
 }
 
 void Renderer::runPass() {
     const auto start = std::chrono::steady_clock::now();
     const int batches = options_.batchesPerPass;
-    std::vector<BeamJob> beamJobs;
+    std::vector<renderer::BeamJob> beamJobs;
     const int replicate = replicateOfPass(statistics_.passes);
     for (size_t l = 0; l < lightStates_.size(); ++l) {
-        const LightState& light = lightStates_[l];
+        const renderer::LightState& light = lightStates_[l];
         for (int slot = 1; slot < light.slots; ++slot) {
             const int count = beamCount(statistics_.passes, l, slot);
             std::uint64_t& drawn = beamsDrawn_[l][static_cast<size_t>(slot) * options_.beamReplicates + replicate];
             for (int k = 0; k < count; ++k) {
-                BeamJob job;
+                renderer::BeamJob job;
                 job.light = static_cast<int>(l);
                 job.slot = slot;
                 job.index = k;
@@ -985,8 +723,11 @@ void Renderer::runPass() {
     const int jobs = static_cast<int>(beamJobs.size()) + batches;
     tbb::parallel_for(tbb::blocked_range<int>(0, jobs, 1), [&](const tbb::blocked_range<int>& range) {
         for (int j = range.begin(); j != range.end(); ++j) {
-            if (j < static_cast<int>(beamJobs.size())) traceBeam(beamJobs[j]);
-            else traceBatch(batchesDone_ + (j - static_cast<int>(beamJobs.size())), batches_[j - beamJobs.size()]);
+            if (j < static_cast<int>(beamJobs.size()))
+                renderer::traceBeam(*lens_, options_, tracer_, lightStates_[beamJobs[j].light], statistics_.passes,
+                                    beamJobs[j]);
+            else
+                traceBatch(batchesDone_ + (j - static_cast<int>(beamJobs.size())), batches_[j - beamJobs.size()]);
         }
     });
     merge(batches_, beamJobs);
@@ -1027,8 +768,8 @@ void Renderer::runPass() {
     // Beam-rendered paths: one sample per pass (their beams are stratified together).
     std::vector<double> passTally(tallies_.size(), 0.0);
     double passLayer[kFixedLayerCount] = {};
-    for (const BeamJob& job : beamJobs) {
-        const LightState& light = lightStates_[job.light];
+    for (const renderer::BeamJob& job : beamJobs) {
+        const renderer::LightState& light = lightStates_[job.light];
         passTally[light.tallyOffset + job.slot] += job.powerY;
         passLayer[light.layer[job.slot]] += job.powerY;
         ++statistics_.beams;
@@ -1086,12 +827,12 @@ std::uint64_t Renderer::fingerprint() const {
                         options_.smoothNeighbours, options_.tabulatedReflectance ? 1 : 0,
                         options_.strayLightSampling ? 1 : 0, film_.replicates()};
     mix(ints, sizeof ints);
-    for (const Component& c : components_) {
+    for (const renderer::PhotonComponent& c : components_) {
         mix(&c.light, sizeof c.light);
         mix(&c.slot, sizeof c.slot);
         mix(&c.probability, sizeof c.probability);
     }
-    for (const LightState& light : lightStates_) mix(light.beamRate.data(), light.beamRate.size() * sizeof(double));
+    for (const renderer::LightState& light : lightStates_) mix(light.beamRate.data(), light.beamRate.size() * sizeof(double));
     const double doubles[] = {options_.film.radiusPx, options_.materials.housingAlbedo, options_.materials.edgeAlbedo,
                               options_.materials.irisAlbedo, lens_->sensorZMm(), lens_->iris().radiusMm()};
     mix(doubles, sizeof doubles);

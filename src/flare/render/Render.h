@@ -202,6 +202,13 @@ struct RenderStatistics {
     std::array<double, kFixedLayerCount> largestPhotonY{};
 };
 
+// The renderer's internals: its plan (RenderPlan.h) and the beams' work (BeamStrategy.h).
+namespace renderer {
+struct LightState;
+struct PhotonComponent;
+struct BeamJob;
+}  // namespace renderer
+
 class Renderer {
 public:
     // Analyses the ghosts of every light, plans the budget and allocates the film. `lens` is
@@ -249,24 +256,19 @@ public:
     void loadCheckpoint(const std::string& path);
 
 private:
-    struct Component;
-    struct LightState;
     struct BatchResult;
-    struct BeamJob;
     void traceBatch(std::int64_t batchIndex, BatchResult& out) const;
-    void traceBeam(BeamJob& job) const;
-    void merge(const std::vector<BatchResult>& batches, const std::vector<BeamJob>& beams);
+    void merge(const std::vector<BatchResult>& batches, const std::vector<renderer::BeamJob>& beams);
     std::uint64_t fingerprint() const;
-    // The beams a path draws in a pass: the floor of its rate, and one more with the probability
-    // of its fraction (a function of the seed, the pass and the path).
+    // The beams a path draws in a pass (renderer::beamCount at the path's rate).
     int beamCount(int pass, size_t light, int slot) const;
     int replicateOfPass(int pass) const { return pass % options_.beamReplicates; }
 
     const LensSystem* lens_;
     RenderOptions options_;
-    std::vector<LightState> lightStates_;
+    std::vector<renderer::LightState> lightStates_;
     std::vector<LightPlan> lightPlans_;
-    std::vector<Component> components_;
+    std::vector<renderer::PhotonComponent> components_;
     std::vector<double> componentCdf_;
     std::vector<PathTally> tallies_;
     std::vector<PathTally> layerTallies_;
