@@ -7,7 +7,6 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
-#include <numbers>
 #include <span>
 #include <unordered_map>
 
@@ -16,14 +15,12 @@
 #include <tbb/parallel_for.h>
 
 #include "flare/core/Error.h"
-#include "flare/core/Random.h"
 #include "flare/ghosts/GuideMask.h"
 #include "flare/optics/PacketTracer.h"
-#include "flare/optics/SequentialTracer.h"
 #include "flare/photons/LightSampler.h"
 #include "flare/render/BeamStrategy.h"
+#include "flare/render/PhotonBatches.h"
 #include "flare/render/RenderPlan.h"
-#include "flare/render/SensorHit.h"
 
 namespace flare {
 
@@ -55,16 +52,6 @@ constexpr double kMm2PerM2 = 1e6;
 constexpr int kGuideGrowCells = 4;
 constexpr double kGuideSensorMargin = 0.1;
 }  // namespace
-
-constexpr int kScatterSources = static_cast<int>(ScatterSource::Count) - 1;
-
-struct Renderer::BatchResult {
-    std::vector<renderer::SensorHit> hits;
-    std::vector<double> tallySums;  // Σ Y power (W) per tally
-    double layerSums[kFixedLayerCount] = {};
-    double sourceSums[kScatterSources] = {};
-    RenderStatistics statistics;    // photon counts and fates of this batch
-};
 
 Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights, const RenderOptions& options)
     : lens_(&lens), options_(options), indexTable_(lens),
@@ -291,7 +278,7 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
         t.light = -1;
         layerTallies_.push_back(t);
     }
-    for (int source = 0; source < kScatterSources; ++source) {
+    for (int source = 0; source < renderer::kScatterSources; ++source) {
         PathTally t;
         t.kind = PathTally::Kind::Scatter;
         t.light = -1;
@@ -299,15 +286,15 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
     }
     // With per-path layers, the scatter layer split by what the light met first, for the sources
     // this scene has (the report's scatter_sources split the power the same way).
-    scatterSourceLayer_.assign(kScatterSources, -1);
+    scatterSourceLayer_.assign(renderer::kScatterSources, -1);
     if (options.perGhostLayers) {
         bool dust = false, grease = false;
         for (const SurfaceContamination& c : options.contamination)
             dust = dust || c.dustCoverage > 0.0, grease = grease || c.greaseCoverage > 0.0;
-        const bool present[kScatterSources] = {
+        const bool present[renderer::kScatterSources] = {
             m.housingAlbedo + m.edgeAlbedo + m.irisAlbedo + m.housingGlossy + m.edgeGlossy + m.irisGlossy > 0.0, dust,
             grease, !options.media.empty()};
-        for (int source = 0; source < kScatterSources; ++source) {
+        for (int source = 0; source < renderer::kScatterSources; ++source) {
             if (!present[source]) continue;
             scatterSourceLayer_[source] = static_cast<int>(layerNames_.size());
             layerNames_.push_back(std::string("scatter_") + toString(static_cast<ScatterSource>(source + 1)));
@@ -389,250 +376,7 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
 
 Renderer::~Renderer() = default;
 
-void Renderer::traceBatch(std::int64_t batchIndex, BatchResult& out) const {
-    out.hits.clear();
-    out.tallySums.assign(tallies_.size(), 0.0);
-    std::fill(std::begin(out.layerSums), std::end(out.layerSums), 0.0);
-    std::fill(std::begin(out.sourceSums), std::end(out.sourceSums), 0.0);
-    out.statistics = RenderStatistics{};
-    RenderStatistics& stats = out.statistics;
-    if (components_.empty()) {
-        stats.photons = options_.batchPhotons;
-        return;
-    }
-    Rng rng(options_.seed, static_cast<std::uint64_t>(batchIndex));
-    const LensSystem& lens = *lens_;
-    const double halfW = 0.5 * lens.sensor().widthMm, halfH = 0.5 * lens.sensor().heightMm;
-    std::vector<int> noReflections;
-    SequentialPath sequence;
-    const std::unique_ptr<PhotonTracer::Scratch> scratch = tracer_.makeScratch();
-    // Guided paths own only unscattered light: with dust, grease or bulk media their weight is the
-    // probability of crossing them clear, which needs the path's points.
-    const bool clearWeight = tracer_.hasContamination() || tracer_.hasMedia();
-    std::vector<glm::dvec3> pathPoints;
-    std::vector<int> pathSurfaces;
-    TraceOptions guidedOptions;
-    if (clearWeight) {
-        guidedOptions.pathPointsMm = &pathPoints;
-        guidedOptions.pathSurfaces = &pathSurfaces;
-    }
-
-    auto score = [&](int layer, int ghostLayer, int tally, const glm::dvec2& sensorMm, const glm::dvec3& xyzW) {
-        out.hits.push_back({static_cast<float>(sensorMm.x), static_cast<float>(sensorMm.y),
-                            {static_cast<float>(xyzW.x), static_cast<float>(xyzW.y), static_cast<float>(xyzW.z)},
-                            static_cast<std::int16_t>(layer), ghostLayer});
-        out.tallySums[tally] += xyzW.y;
-        out.layerSums[layer] += xyzW.y;
-        stats.largestPhotonY[layer] = std::max(stats.largestPhotonY[layer], xyzW.y);
-        ++stats.sensorHits;
-    };
-
-    // Unguided photons waiting to be traced together, and what scoring them needs.
-    struct Pending {
-        double a = 0.0, b = 0.0;  // the emission point (mm in the emission disk)
-        double weight = 0.0;      // W
-        glm::dvec3 xyzWeight{0.0};
-        int light = 0;
-    };
-    constexpr size_t kPacketPhotons = 256;
-    const std::uint64_t walkSeed = mixBits(options_.seed ^ 0x3a1f5c0de0f7a1c5ull);
-    const std::uint64_t walkStream = static_cast<std::uint64_t>(batchIndex) * static_cast<std::uint64_t>(options_.batchPhotons);
-    // Guided photons waiting for their paths' packets (the whole batch's), and what scoring them
-    // needs.
-    struct GuidedPending {
-        int component = 0;
-        double weight = 0.0;  // W
-        glm::dvec3 xyzWeight{0.0};
-    };
-    // (Per thread and kept from batch to batch: the histories alone are 400 KB.)
-    struct PacketBuffers {
-        std::vector<Pending> pending;
-        std::vector<SpectralIndices> indices = std::vector<SpectralIndices>(kPacketPhotons);
-        std::vector<PhotonTracer::PacketPhoton> packet;
-        std::vector<PhotonHistory> histories = std::vector<PhotonHistory>(kPacketPhotons);
-        std::vector<GuidedPending> guided;
-        std::vector<Ray> guidedRays, sortedRays;
-        std::vector<SpectralIndices> guidedIndices;
-        std::vector<const SpectralIndices*> sortedIndices;
-        std::vector<BundleLanding> landings;
-        std::vector<int> start, position;
-    };
-    static thread_local PacketBuffers buffers;
-    std::vector<Pending>& pending = buffers.pending;
-    std::vector<SpectralIndices>& pendingIndices = buffers.indices;
-    std::vector<PhotonTracer::PacketPhoton>& packet = buffers.packet;
-    std::vector<PhotonHistory>& histories = buffers.histories;
-    pending.clear();
-    packet.clear();
-    // Guided photons are traced at the end of the batch, each path's together in SIMD packets
-    // (PacketTracer, each photon at its own wavelength: tracePath's results to the bit), and
-    // scored in the order they were drawn. With dust, grease or media their clear transmittance
-    // draws from the batch's generator in that order, so they are traced one at a time there.
-    const bool guidedInPackets = !clearWeight;
-    std::vector<GuidedPending>& guided = buffers.guided;
-    guided.clear();
-    if (guidedInPackets && buffers.guidedIndices.size() < static_cast<size_t>(options_.batchPhotons))
-        buffers.guidedIndices.resize(static_cast<size_t>(options_.batchPhotons));
-    buffers.guidedRays.clear();
-    SpectralIndices oneIndices;  // a guided photon's, traced at once
-    auto traceGuided = [&] {
-        const size_t count = guided.size();
-        if (count == 0) return;
-        // A counting sort by path.
-        std::vector<int>& start = buffers.start;
-        std::vector<int>& position = buffers.position;
-        start.assign(components_.size() + 1, 0);
-        for (const GuidedPending& g : guided) ++start[g.component + 1];
-        for (size_t c = 0; c < components_.size(); ++c) start[c + 1] += start[c];
-        position.resize(count);
-        buffers.sortedRays.resize(count);
-        buffers.sortedIndices.resize(count);
-        buffers.landings.resize(count);
-        {
-            std::vector<int> next(start.begin(), start.end() - 1);
-            for (size_t j = 0; j < count; ++j) {
-                const int at = next[guided[j].component]++;
-                position[j] = at;
-                buffers.sortedRays[at] = buffers.guidedRays[j];
-                buffers.sortedIndices[at] = &buffers.guidedIndices[j];
-            }
-        }
-        for (size_t c = 0; c < components_.size(); ++c) {
-            const size_t from = static_cast<size_t>(start[c]), n = static_cast<size_t>(start[c + 1]) - from;
-            if (n == 0) continue;
-            components_[c].tracer->trace(std::span<const Ray>(buffers.sortedRays).subspan(from, n),
-                                         std::span<const SpectralIndices* const>(buffers.sortedIndices).subspan(from, n),
-                                         std::span<BundleLanding>(buffers.landings).subspan(from, n));
-        }
-        for (size_t j = 0; j < count; ++j) {
-            const GuidedPending& g = guided[j];
-            const BundleLanding& landing = buffers.landings[position[j]];
-            if (!landing.ok()) continue;
-            const glm::dvec2& p = landing.sensorMm;
-            if (std::abs(p.x) > halfW || std::abs(p.y) > halfH) continue;
-            const renderer::PhotonComponent& component = components_[g.component];
-            const renderer::LightState& light = lightStates_[component.light];
-            score(light.layer[component.slot], light.ghostLayer[component.slot], light.tallyOffset + component.slot, p,
-                  g.xyzWeight * (g.weight * landing.throughput));
-        }
-        guided.clear();
-        buffers.guidedRays.clear();
-    };
-    auto tracePending = [&] {
-        if (pending.empty()) return;
-        tracer_.tracePacket(packet, std::span(histories).first(packet.size()), *scratch);
-        for (size_t i = 0; i < pending.size(); ++i) {
-            const Pending& photon = pending[i];
-            const PhotonHistory& history = histories[i];
-            const renderer::LightState& light = lightStates_[photon.light];
-            const double weight = photon.weight;
-            stats.nullCollisions += history.nullCollisions;
-            stats.realCollisions += history.realCollisions;
-            FateTally& fate = stats.fates[static_cast<int>(history.fate)];
-            ++fate.photons;
-            fate.powerW += weight * history.weight;
-            // (Stray light sampling deposits shares on the way; an analog photon's are all zero.)
-            for (int f = 0; f < static_cast<int>(PhotonFate::Count); ++f) stats.fates[f].powerW += weight * history.deposited[f];
-            if (history.entered) stats.unguidedEnteredPowerW += weight;
-            if (weight == 0.0) continue;
-            for (int k = 0; k < history.arrivalCount; ++k) {
-                const SensorArrival& arrival = history.arrivals[k];
-                int layer = kLayerScatter, tally = light.scatterTally(), ghostLayer = -1;
-                if (!arrival.scattered) {
-                    const auto it = light.slotOfKey.find(arrival.key);
-                    if (it == light.slotOfKey.end()) {
-                        layer = kLayerHigher;
-                        tally = light.higherTally();
-                    } else {
-                        const int slot = it->second;
-                        // Owned by a guided strategy: already counted there.
-                        if (light.masks[slot].contains(photon.a, photon.b)) continue;
-                        layer = light.layer[slot];
-                        tally = light.tallyOffset + slot;
-                        ghostLayer = light.ghostLayer[slot];
-                    }
-                }
-                const glm::dvec3 xyzW = photon.xyzWeight * (weight * arrival.weight);
-                if (arrival.scattered) {
-                    const int source = static_cast<int>(arrival.firstScatter) - 1;
-                    out.sourceSums[source] += xyzW.y;
-                    ghostLayer = scatterSourceLayer_[source];
-                }
-                score(layer, ghostLayer, tally, arrival.positionMm, xyzW);
-            }
-        }
-        pending.clear();
-        packet.clear();
-    };
-
-    for (int photon = 0; photon < options_.batchPhotons; ++photon) {
-        ++stats.photons;
-        const double uComponent = rng.uniform();
-        const size_t c = std::min(components_.size() - 1,
-                                  static_cast<size_t>(std::upper_bound(componentCdf_.begin(), componentCdf_.end(), uComponent) -
-                                                      componentCdf_.begin()));
-        const renderer::PhotonComponent& component = components_[c];
-        const renderer::LightState& light = lightStates_[component.light];
-        double pdfPerNm = 0.0;
-        const double wavelengthNm = light.wavelengths.sample(rng.uniform(), &pdfPerNm);
-        const glm::dvec3 xyzWeight = light.wavelengths.xyzWeight(wavelengthNm, pdfPerNm);
-        // The indices go straight where the photon's trace reads them.
-        SpectralIndices& indices = component.slot < 0   ? pendingIndices[pending.size()]
-                                   : guidedInPackets    ? buffers.guidedIndices[guided.size()]
-                                                        : oneIndices;
-        indexTable_.fill(wavelengthNm, indices);
-        const double u1 = rng.uniform(), u2 = rng.uniform(), u3 = rng.uniform();
-        const double uLight1 = rng.uniform(), uLight2 = rng.uniform();
-
-        if (component.slot >= 0) {
-            // Guided: emission over the path's live cells, forced sequence, Fresnel weights.
-            ++stats.guidedPhotons;
-            const GuideMask& mask = light.masks[component.slot];
-            const glm::dvec2 ab = mask.sample(u1, u2, u3);
-            const EmittedRay emitted = light.sampler.rayThrough(ab.x, ab.y, uLight1, uLight2);
-            const double weight = emitted.powerPerMm2 * mask.areaMm2() / component.probability;
-            if (weight == 0.0) continue;
-            if (guidedInPackets) {
-                buffers.guidedRays.push_back(emitted.ray);
-                guided.push_back({static_cast<int>(c), weight, xyzWeight});
-                continue;
-            }
-            sequence.reflections = component.slot == 0 ? std::span<const int>(noReflections)
-                                                       : std::span<const int>(light.report.ghosts[component.slot - 1].path.reflections);
-            pathPoints.clear();
-            pathSurfaces.clear();
-            const TraceResult result = tracePath(lens, indices, emitted.ray, sequence, guidedOptions);
-            if (!result.ok()) continue;
-            const glm::dvec3& p = result.ray.originMm;
-            if (std::abs(p.x) > halfW || std::abs(p.y) > halfH) continue;
-            const double clear =
-                clearWeight ? tracer_.clearTransmittance(pathPoints, pathSurfaces, wavelengthNm, rng, *scratch) : 1.0;
-            score(light.layer[component.slot], light.ghostLayer[component.slot], light.tallyOffset + component.slot,
-                  {p.x, p.y}, xyzWeight * (weight * result.throughput * clear));
-            continue;
-        }
-
-        // Unguided: uniform over the emission disk, non-sequential tracing. (The disk, not its
-        // square: the corners hold no ray that can enter, and were a fifth of the photons.) The
-        // photons are traced in packets (PhotonTracer::tracePacket), each walk drawing from a
-        // generator of its own: stream (batch, photon) of a seed apart from the batches'.
-        ++stats.unguidedPhotons;
-        const double radius = light.sampler.emissionHalfSizeMm();
-        const double r = radius * std::sqrt(u1), phi = 2.0 * std::numbers::pi * u2;
-        const double a = r * std::cos(phi), b = r * std::sin(phi);
-        const EmittedRay emitted = light.sampler.rayThrough(a, b, uLight1, uLight2);
-        const double weight = emitted.powerPerMm2 * std::numbers::pi * radius * radius / component.probability;
-        stats.unguidedEmittedPowerW += weight;
-        const size_t i = pending.size();
-        pending.push_back({a, b, weight, xyzWeight, component.light});
-        packet.push_back({emitted.ray, &pendingIndices[i], Rng(walkSeed, walkStream + static_cast<std::uint64_t>(photon))});
-        if (pending.size() == kPacketPhotons) tracePending();
-    }
-    tracePending();
-    traceGuided();
-}
-
-void Renderer::merge(const std::vector<BatchResult>& batches, const std::vector<renderer::BeamJob>& beams) {
+void Renderer::merge(const std::vector<renderer::BatchResult>& batches, const std::vector<renderer::BeamJob>& beams) {
     const int bandCount = film_.bandCount();
     const int width = options_.film.widthPx;
     // Every hit, by the bands its kernel touches (a kernel near a band's edge reaches two).
@@ -650,7 +394,7 @@ void Renderer::merge(const std::vector<BatchResult>& batches, const std::vector<
         const int last = std::min(bandCount - 1, static_cast<int>(std::floor((row + reach) / Film::kBandRows)));
         for (int b = first; b <= last; ++b) byBand[b].push_back({&hit});
     };
-    for (const BatchResult& batch : batches)
+    for (const renderer::BatchResult& batch : batches)
         for (const renderer::SensorHit& hit : batch.hits) bucket(hit);
     for (const renderer::BeamJob& job : beams)
         for (const renderer::SensorHit& hit : job.hits) bucket(hit);
@@ -719,6 +463,8 @@ void Renderer::runPass() {
             }
         }
     }
+    const renderer::PhotonBatchInputs batchInputs{*lens_, options_, tracer_, indexTable_, lightStates_, components_,
+                                                  componentCdf_, scatterSourceLayer_, tallies_.size()};
     // Beams first (they cost more each), then the photon batches: one loop balances both.
     const int jobs = static_cast<int>(beamJobs.size()) + batches;
     tbb::parallel_for(tbb::blocked_range<int>(0, jobs, 1), [&](const tbb::blocked_range<int>& range) {
@@ -727,13 +473,14 @@ void Renderer::runPass() {
                 renderer::traceBeam(*lens_, options_, tracer_, lightStates_[beamJobs[j].light], statistics_.passes,
                                     beamJobs[j]);
             else
-                traceBatch(batchesDone_ + (j - static_cast<int>(beamJobs.size())), batches_[j - beamJobs.size()]);
+                renderer::traceBatch(batchInputs, batchesDone_ + (j - static_cast<int>(beamJobs.size())),
+                                     batches_[j - beamJobs.size()]);
         }
     });
     merge(batches_, beamJobs);
 
     const double inverseCount = 1.0 / options_.batchPhotons;
-    for (const BatchResult& batch : batches_) {
+    for (const renderer::BatchResult& batch : batches_) {
         for (size_t t = 0; t < tallies_.size(); ++t) {
             const double mean = batch.tallySums[t] * inverseCount;
             tallies_[t].sumMeans += mean;
@@ -744,7 +491,7 @@ void Renderer::runPass() {
             layerTallies_[l].sumMeans += mean;
             layerTallies_[l].sumSquaredMeans += mean * mean;
         }
-        for (int source = 0; source < kScatterSources; ++source) {
+        for (int source = 0; source < renderer::kScatterSources; ++source) {
             const double mean = batch.sourceSums[source] * inverseCount;
             scatterSourceTallies_[source].sumMeans += mean;
             scatterSourceTallies_[source].sumSquaredMeans += mean * mean;

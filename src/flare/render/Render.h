@@ -202,10 +202,12 @@ struct RenderStatistics {
     std::array<double, kFixedLayerCount> largestPhotonY{};
 };
 
-// The renderer's internals: its plan (RenderPlan.h) and the beams' work (BeamStrategy.h).
+// The renderer's internals: its plan (RenderPlan.h) and the strategies' work (PhotonBatches.h,
+// BeamStrategy.h).
 namespace renderer {
 struct LightState;
 struct PhotonComponent;
+struct BatchResult;
 struct BeamJob;
 }  // namespace renderer
 
@@ -256,9 +258,7 @@ public:
     void loadCheckpoint(const std::string& path);
 
 private:
-    struct BatchResult;
-    void traceBatch(std::int64_t batchIndex, BatchResult& out) const;
-    void merge(const std::vector<BatchResult>& batches, const std::vector<renderer::BeamJob>& beams);
+    void merge(const std::vector<renderer::BatchResult>& batches, const std::vector<renderer::BeamJob>& beams);
     std::uint64_t fingerprint() const;
     // The beams a path draws in a pass (renderer::beamCount at the path's rate).
     int beamCount(int pass, size_t light, int slot) const;
@@ -273,7 +273,7 @@ private:
     std::vector<PathTally> tallies_;
     std::vector<PathTally> layerTallies_;
     std::vector<PathTally> scatterSourceTallies_;
-    std::vector<BatchResult> batches_;  // scratch, one per batch of a pass
+    std::vector<renderer::BatchResult> batches_;  // scratch, one per batch of a pass
     std::vector<std::string> layerNames_;
     std::vector<int> scatterSourceLayer_;  // per scatter source: its film layer, −1 if none
     IndexTable indexTable_;
