@@ -44,7 +44,7 @@ struct PhotonBatchInputs {
     const IndexTable& indexTable;
     const std::vector<LightState>& lights;
     const std::vector<PhotonComponent>& components;
-    const std::vector<double>& componentCdf;      // the components' cumulative probabilities
+    const std::vector<double>& componentCdf;      // cumulativeProbabilities(components)
     const std::vector<int>& scatterSourceLayer;   // per scatter source: its film layer, −1 if none
     size_t tallyCount;
 };

@@ -3,21 +3,18 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <memory>
-#include <span>
+#include <stdexcept>
 #include <unordered_map>
+#include <utility>
 
-#include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include "flare/core/Error.h"
-#include "flare/ghosts/GuideMask.h"
-#include "flare/optics/PacketTracer.h"
-#include "flare/photons/LightSampler.h"
 #include "flare/render/BeamStrategy.h"
 #include "flare/render/PhotonBatches.h"
 #include "flare/render/RenderPlan.h"
@@ -45,12 +42,45 @@ const char* toString(PathStrategy strategy) {
 
 namespace {
 
-constexpr double kMm2PerM2 = 1e6;
-// Guide masks reach this far beyond the analysed live region (cells) and beyond the sensor (a
-// fraction of its half-diagonal): dispersion across the visible and the sun's 0.5° move a
-// ghost's landings by up to about a millimetre on a full-frame sensor.
-constexpr int kGuideGrowCells = 4;
-constexpr double kGuideSensorMargin = 0.1;
+// The interior finishes (barrel, element edges, iris blades) scatter light.
+bool interiorScatters(const InteriorMaterials& m) {
+    return m.housingAlbedo + m.edgeAlbedo + m.irisAlbedo + m.housingGlossy + m.edgeGlossy + m.irisGlossy > 0.0;
+}
+
+// Tallies of a light, from its tally offset on: direct, every ghost (and chain), higher, scatter.
+void addLightTallies(int lightIndex, const renderer::LightState& light, std::vector<PathTally>& tallies) {
+    for (int slot = 0; slot < light.slots; ++slot) {
+        const GhostEstimate& estimate = slot == 0 ? light.report.direct : light.report.ghosts[slot - 1];
+        PathTally t;
+        t.kind = slot == 0 ? PathTally::Kind::Direct : PathTally::Kind::Ghost;
+        t.light = lightIndex;
+        if (slot > 0) t.path = estimate.path;
+        t.analysedPowerFraction = estimate.powerFraction;
+        t.strategy = light.strategy[slot];
+        t.guided = light.strategy[slot] != PathStrategy::Unguided;
+        tallies.push_back(t);
+    }
+    for (PathTally::Kind kind : {PathTally::Kind::Higher, PathTally::Kind::Scatter}) {
+        PathTally t;
+        t.kind = kind;
+        t.light = lightIndex;
+        tallies.push_back(t);
+    }
+}
+
+// Per-ghost layers: one per label of a kept ghost (or chain), shared by the lights that have it.
+void addGhostLayers(renderer::LightState& light, std::unordered_map<std::string, int>& layerOfLabel,
+                    std::vector<std::string>& layerNames) {
+    const GhostReport& report = light.report;
+    for (size_t g = 0; g < report.ghosts.size(); ++g) {
+        if (report.ghosts[g].pruned) continue;
+        const std::string label = report.ghosts[g].path.label();
+        auto [it, inserted] = layerOfLabel.try_emplace(label, static_cast<int>(layerNames.size()));
+        if (inserted) layerNames.push_back(label);
+        light.ghostLayer[g + 1] = it->second;
+    }
+}
+
 }  // namespace
 
 Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights, const RenderOptions& options)
@@ -63,213 +93,18 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
     if (options.tabulatedReflectance) tracer_.tabulateReflectance();
     if (options.strayLightSampling && options.mode != RenderOptions::Mode::Naive)
         tracer_.setStrayLightSampling({.weighted = true, .connectSensor = true});
-    std::unordered_map<std::string, int> ghostLayerOfLabel;
-    const InteriorMaterials& m = options.materials;
-    const bool anyScattering = m.housingAlbedo + m.edgeAlbedo + m.irisAlbedo + m.housingGlossy + m.edgeGlossy +
-                                       m.irisGlossy > 0.0 ||
-                               tracer_.hasContamination() || tracer_.hasMedia();
-    // Beams are splatted with the fixed 1-px tent: other kernels leave the ghosts to photons.
-    const bool beamsPossible = options.mode == RenderOptions::Mode::Guided &&
-                               options.film.kernel == FilmSettings::Kernel::Fixed && options.film.radiusPx <= 1.0;
+    const bool anyScattering = interiorScatters(options.materials) || tracer_.hasContamination() || tracer_.hasMedia();
 
+    std::unordered_map<std::string, int> ghostLayerOfLabel;
     std::vector<double> lightWeight;
     for (const LightSpec& spec : lights) {
-        renderer::LightState state{LightSampler(spec, lens), WavelengthSampler(toSpectrum(spec.spectrum)),
-                         analyseGhosts(lens, spec.travelDirection(), options.analysis), {}, {}, {}, {}, {}, {}, {}, 0, 0};
-        LightPlan plan;
-        plan.name = spec.name;
-        // Longer chains: the strongest order-4 paths are enumerated and guided too when the lens's
-        // reflectances make them matter (uncoated glass: a few per cent of the ghosts' power),
-        // else they stay with the unguided tracer (coated glass: about R² of the ghosts').
-        plan.higherOrderShareEstimate = higherOrderShareEstimate(
-            lens, lens.indicesAt(options.analysis.wavelengthNm), options.analysis.includeSensor);
-        std::vector<GhostPath> chains;
-        if (options.mode != RenderOptions::Mode::Naive && options.analysis.order == 2 &&
-            options.higherOrder != RenderOptions::HigherOrder::Off) {
-            chains = enumerateGhosts(lens, 4, options.analysis.includeSensor);
-            plan.higherOrderChains = static_cast<long>(chains.size());
-        }
-        const bool tooMany = chains.size() > static_cast<size_t>(std::max(options.maxAnalysedChains, 0));
-        if (options.mode == RenderOptions::Mode::Naive) {
-            plan.higherOrderWhy = "naive mode guides nothing";
-        } else if (options.analysis.order != 2) {
-            plan.higherOrderWhy = "enumerated with the ghosts (ghost_order 4)";
-        } else if (options.higherOrder == RenderOptions::HigherOrder::Off) {
-            plan.higherOrderWhy = "left to the unguided tracer: --higher-order off";
-        } else if (options.higherOrder == RenderOptions::HigherOrder::On) {
-            plan.higherOrderGuided = true;
-            plan.higherOrderWhy = tooMany ? "--higher-order on: the strongest chains by reflectance analysed"
-                                          : "--higher-order on";
-        } else if (plan.higherOrderShareEstimate < options.higherOrderThreshold) {
-            plan.higherOrderWhy = "left to the unguided tracer: their estimated share is below the threshold";
-        } else if (tooMany) {
-            plan.higherOrderWhy = "left to the unguided tracer: too many chains to analyse them all "
-                                  "(--higher-order on analyses the strongest by reflectance)";
-        } else {
-            plan.higherOrderGuided = true;
-            plan.higherOrderWhy = "the lens's reflectances make order-4 chains matter";
-        }
-        if (plan.higherOrderGuided) {
-            // Their power spreads over hundreds of paths, and vignetting, not the reflectances,
-            // decides which are strong: every chain is analysed, up to maxAnalysedChains; past
-            // that (with --higher-order on; a zoom has 10⁵ chains: minutes of analysis) the
-            // strongest by reflectance.
-            if (tooMany) {
-                const SpectralIndices at = lens.indicesAt(options.analysis.wavelengthNm);
-                std::vector<std::pair<double, size_t>> ranked;
-                for (size_t c = 0; c < chains.size(); ++c)
-                    ranked.push_back({-normalIncidenceReflectance(lens, at, chains[c]), c});
-                // Strongest first; ties by enumeration order, so the choice is deterministic.
-                std::partial_sort(ranked.begin(), ranked.begin() + options.maxAnalysedChains, ranked.end());
-                std::vector<size_t> keep;
-                for (int i = 0; i < options.maxAnalysedChains; ++i) keep.push_back(ranked[i].second);
-                std::sort(keep.begin(), keep.end());
-                std::vector<GhostPath> strongest;
-                for (size_t c : keep) strongest.push_back(std::move(chains[c]));
-                chains = std::move(strongest);
-            }
-            plan.higherOrderAnalysed = static_cast<int>(chains.size());
-            const size_t before = state.report.ghosts.size();
-            GhostAnalysisOptions chainOptions = options.analysis;
-            chainOptions.order = 4;
-            chainOptions.keepShare = options.higherOrderKeepShare;
-            appendGhostPaths(lens, chains, chainOptions, state.report);
-            int kept = 0;
-            for (size_t g = before; g < state.report.ghosts.size(); ++g) {
-                GhostEstimate& estimate = state.report.ghosts[g];
-                if (!estimate.pruned && kept >= options.maxHigherOrderPaths) {
-                    estimate.pruned = true;
-                    ++state.report.prunedCount;
-                    state.report.prunedPowerFraction += estimate.powerFraction;
-                }
-                kept += !estimate.pruned;
-            }
-            plan.higherOrderPaths = kept;
-        }
-        // Every path's spectrum in this light, for the second pruning (GhostAnalysis.h: the
-        // analysis pruned at one wavelength; the zoom's ghost-layer fireflies were ghosts it pruned
-        // that reflect far more in the blue and red) and for the beams' wavelengths.
-        std::vector<PathSpectrum> spectra(state.report.ghosts.size());
-        if (options.mode != RenderOptions::Mode::Naive) {
-            const Spectrum spectrum = toSpectrum(spec.spectrum);
-            // Every nanometre for the kept paths (their beams' wavelengths), every ten for the
-            // pruned ghosts (the pruning); then every nanometre for the ghosts the pruning keeps.
-            auto trace = [&](bool afterPruning) {
-                tbb::parallel_for(0, static_cast<int>(state.report.ghosts.size()), [&](int g) {
-                    const GhostEstimate& estimate = state.report.ghosts[g];
-                    if (!(estimate.powerFraction > 0.0) || !spectra[g].throughput.empty()) return;
-                    const bool ghost = estimate.path.reflections.size() == 2;
-                    if (afterPruning ? !estimate.pruned : !estimate.pruned || ghost)
-                        spectra[g] = pathSpectrum(lens, state.report.grid, estimate, spectrum, options.analysis.wavelengthNm,
-                                                  estimate.pruned ? kPruningStepNm : 1);
-                });
-            };
-            trace(false);
-            plan.spectrallyKeptGhosts = keepSpectrallyStrongGhosts(lens, spectrum, options.analysis, state.report, &spectra);
-            trace(true);
-        }
-        const GhostReport& report = state.report;
-        state.slots = 1 + static_cast<int>(report.ghosts.size());
-        state.tallyOffset = static_cast<int>(tallies_.size());
-        state.slotOfKey[pathKey({})] = 0;
-        for (size_t g = 0; g < report.ghosts.size(); ++g)
-            state.slotOfKey[pathKey(report.ghosts[g].path.reflections)] = static_cast<int>(g) + 1;
-
-        // Nominal entering power: the light's irradiance at the lens times the entering area.
-        const double irradianceWPerMm2 =
-            spec.type == LightSpec::Type::Directional
-                ? spec.power / kMm2PerM2
-                : spec.power / glm::dot(spec.positionMm, spec.positionMm);
-        plan.enteringPowerW = irradianceWPerMm2 * report.enteringAreaMm2;
-
-        const bool reaches = report.direct.powerFraction > 0.0 ||
-                             std::any_of(report.ghosts.begin(), report.ghosts.end(),
-                                         [](const GhostEstimate& g) { return g.powerFraction > 0.0; });
-        if (!reaches && !anyScattering) {
-            plan.skipped = true;
-            plan.skipReason = spec.travelDirection().z <= 0.0
-                                  ? "the light is behind the lens"
-                                  : "no analysed ray of the direct image or of any enumerated ghost reaches the sensor";
-        }
-
-        // Tallies of this light: direct, every ghost, higher, scatter.
-        PathTally direct;
-        direct.kind = PathTally::Kind::Direct;
-        direct.light = static_cast<int>(lightPlans_.size());
-        direct.analysedPowerFraction = report.direct.powerFraction;
-        tallies_.push_back(direct);
-        for (const GhostEstimate& g : report.ghosts) {
-            PathTally t;
-            t.kind = PathTally::Kind::Ghost;
-            t.light = direct.light;
-            t.path = g.path;
-            t.analysedPowerFraction = g.powerFraction;
-            tallies_.push_back(t);
-        }
-        for (PathTally::Kind kind : {PathTally::Kind::Higher, PathTally::Kind::Scatter}) {
-            PathTally t;
-            t.kind = kind;
-            t.light = direct.light;
-            tallies_.push_back(t);
-        }
-
-        state.masks.resize(state.slots);
-        state.ghostLayer.assign(state.slots, -1);
-        state.strategy.assign(state.slots, PathStrategy::Unguided);
-        state.layer.assign(state.slots, kLayerGhost);
-        state.layer[0] = kLayerDirect;
-        for (int slot = 1; slot < state.slots; ++slot)
-            if (report.ghosts[slot - 1].path.reflections.size() > 2) state.layer[slot] = kLayerHigher;
-        state.beamWavelengths.resize(state.slots);
-        state.beamRate.assign(state.slots, 0.0);
-        std::vector<double> beamWeight(state.slots, 0.0);
-        std::vector<double> spectralPower(state.slots, 0.0);  // per slot: power fraction over the spectrum
-        if (options.mode != RenderOptions::Mode::Naive && !plan.skipped) {
-            // Guide masks: the analysed regions re-traced with a margin around the sensor (see
-            // GuideMask::traced), in parallel over paths; each mask is a pure function of its path.
-            const SpectralIndices indices = lens.indicesAt(options.analysis.wavelengthNm);
-            const double marginMm = kGuideSensorMargin * lens.sensorHalfDiagonalMm();
-            const bool beamLight = beamsPossible && spec.type == LightSpec::Type::Directional;
-            tbb::parallel_for(0, state.slots, [&](int slot) {
-                const GhostEstimate& estimate = slot == 0 ? report.direct : report.ghosts[slot - 1];
-                if (slot > 0 && estimate.pruned) return;
-                state.masks[slot] = GuideMask::traced(lens, indices, report.grid, estimate.path, estimate.pupil,
-                                                      kGuideGrowCells, marginMm);
-                if (state.masks[slot].empty()) return;
-                state.strategy[slot] = PathStrategy::Photons;
-                if (slot == 0 || !beamLight || estimate.lattice.empty()) return;
-                renderer::BeamProbe probe = renderer::probeBeamPath(lens, indices, state, slot, spectra[slot - 1],
-                                                                    toSpectrum(spec.spectrum), options);
-                spectralPower[slot] = probe.spectralPower;
-                state.beamWavelengths[slot] = std::move(probe.wavelengths);
-                if (!probe.beams) return;
-                beamWeight[slot] = probe.weight;
-                state.strategy[slot] = PathStrategy::Beams;
-            });
-        }
-        state.beamRate = renderer::beamRates(state, beamWeight, spectralPower, options.beamsPerPass);
-        for (int slot = 1; slot < state.slots; ++slot) plan.beamGhosts += state.strategy[slot] == PathStrategy::Beams;
-        for (size_t g = 0; g < report.ghosts.size(); ++g) {
-            const bool chain = report.ghosts[g].path.reflections.size() > 2;
-            if (report.ghosts[g].pruned) {
-                plan.prunedGhosts += !chain;
-                continue;
-            }
-            plan.keptGhosts += !chain;
-            if (!options.perGhostLayers) continue;
-            const std::string label = report.ghosts[g].path.label();
-            auto [it, inserted] = ghostLayerOfLabel.try_emplace(label, static_cast<int>(layerNames_.size()));
-            if (inserted) layerNames_.push_back(label);
-            state.ghostLayer[g + 1] = it->second;
-        }
-        for (int slot = 0; slot < state.slots; ++slot) {
-            tallies_[state.tallyOffset + slot].strategy = state.strategy[slot];
-            tallies_[state.tallyOffset + slot].guided = state.strategy[slot] != PathStrategy::Unguided;
-        }
-
-        lightWeight.push_back(plan.skipped ? 0.0 : plan.enteringPowerW);
-        lightStates_.push_back(std::move(state));
-        lightPlans_.push_back(plan);
+        renderer::PlannedLight planned = renderer::planLight(lens, spec, options, anyScattering);
+        planned.state.tallyOffset = static_cast<int>(tallies_.size());
+        addLightTallies(static_cast<int>(lightPlans_.size()), planned.state, tallies_);
+        if (options.perGhostLayers) addGhostLayers(planned.state, ghostLayerOfLabel, layerNames_);
+        lightWeight.push_back(planned.plan.skipped ? 0.0 : planned.plan.enteringPowerW);
+        lightStates_.push_back(std::move(planned.state));
+        lightPlans_.push_back(std::move(planned.plan));
     }
     for (PathTally::Kind kind : {PathTally::Kind::Direct, PathTally::Kind::Ghost, PathTally::Kind::Higher,
                                  PathTally::Kind::Scatter}) {
@@ -284,97 +119,111 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
         t.light = -1;
         scatterSourceTallies_.push_back(t);
     }
+    addScatterSourceLayers();
+    setUpFilm();
+    // Beams continue their sequences from pass to pass (per light, per slot × replicate).
+    for (const renderer::LightState& light : lightStates_)
+        beamsDrawn_.emplace_back(static_cast<size_t>(light.slots) * options.beamReplicates, 0);
+
+    components_ = renderer::photonComponents(lens, options, lightStates_, lightWeight);
+    componentCdf_ = renderer::cumulativeProbabilities(components_);
+    batches_.resize(options.batchesPerPass);
+}
+
+Renderer::~Renderer() = default;
+
+void Renderer::addScatterSourceLayers() {
     // With per-path layers, the scatter layer split by what the light met first, for the sources
     // this scene has (the report's scatter_sources split the power the same way).
     scatterSourceLayer_.assign(renderer::kScatterSources, -1);
-    if (options.perGhostLayers) {
-        bool dust = false, grease = false;
-        for (const SurfaceContamination& c : options.contamination)
-            dust = dust || c.dustCoverage > 0.0, grease = grease || c.greaseCoverage > 0.0;
-        const bool present[renderer::kScatterSources] = {
-            m.housingAlbedo + m.edgeAlbedo + m.irisAlbedo + m.housingGlossy + m.edgeGlossy + m.irisGlossy > 0.0, dust,
-            grease, !options.media.empty()};
-        for (int source = 0; source < renderer::kScatterSources; ++source) {
-            if (!present[source]) continue;
-            scatterSourceLayer_[source] = static_cast<int>(layerNames_.size());
-            layerNames_.push_back(std::string("scatter_") + toString(static_cast<ScatterSource>(source + 1)));
-        }
+    if (!options_.perGhostLayers) return;
+    bool dust = false, grease = false;
+    for (const SurfaceContamination& c : options_.contamination)
+        dust = dust || c.dustCoverage > 0.0, grease = grease || c.greaseCoverage > 0.0;
+    const bool present[renderer::kScatterSources] = {interiorScatters(options_.materials), dust, grease,
+                                                     !options_.media.empty()};
+    for (int source = 0; source < renderer::kScatterSources; ++source) {
+        if (!present[source]) continue;
+        scatterSourceLayer_[source] = static_cast<int>(layerNames_.size());
+        layerNames_.push_back(std::string("scatter_") + toString(static_cast<ScatterSource>(source + 1)));
     }
-    if (layerNames_.size() > kFixedLayerCount) film_ = Film(options.film, static_cast<int>(layerNames_.size()));
-    if (options.smoothNeighbours > 0 && options.film.kernel == FilmSettings::Kernel::Fixed) {
-        const double maxRadiusPx = std::max(options.film.maxRadiusPx, options.film.widthPx / 16.0);
-        film_.setLayerKernel(kLayerScatter, FilmSettings::Kernel::Adaptive, options.smoothNeighbours, maxRadiusPx, true);
+}
+
+void Renderer::setUpFilm() {
+    const FilmSettings& film = options_.film;
+    if (layerNames_.size() > kFixedLayerCount) film_ = Film(film, static_cast<int>(layerNames_.size()));
+    if (options_.smoothNeighbours > 0 && film.kernel == FilmSettings::Kernel::Fixed) {
+        const double maxRadiusPx = std::max(film.maxRadiusPx, film.widthPx / 16.0);
+        film_.setLayerKernel(kLayerScatter, FilmSettings::Kernel::Adaptive, options_.smoothNeighbours, maxRadiusPx, true);
         // The higher layer's photons too (its beams are rasterised exactly, whatever the kernel):
         // what the guided chains leave to the unguided tracer, a few sparse photons.
-        film_.setLayerKernel(kLayerHigher, FilmSettings::Kernel::Adaptive, options.smoothNeighbours, maxRadiusPx, true);
+        film_.setLayerKernel(kLayerHigher, FilmSettings::Kernel::Adaptive, options_.smoothNeighbours, maxRadiusPx, true);
         for (int layer : scatterSourceLayer_)
             if (layer >= 0)
-                film_.setLayerKernel(layer, FilmSettings::Kernel::Adaptive, options.smoothNeighbours, maxRadiusPx, true);
+                film_.setLayerKernel(layer, FilmSettings::Kernel::Adaptive, options_.smoothNeighbours, maxRadiusPx, true);
     }
     for (int l = 0; l < kFixedLayerCount; ++l) film_.addVarianceGroup({l});
     film_.addVarianceGroup({kLayerGhost, kLayerHigher, kLayerScatter});
     // Beams continue their sequences from pass to pass: the error is estimated from replicates.
     bool anyBeams = false;
-    for (const renderer::LightState& light : lightStates_) {
-        beamsDrawn_.emplace_back(static_cast<size_t>(light.slots) * options.beamReplicates, 0);
+    for (const renderer::LightState& light : lightStates_)
         for (int slot = 1; slot < light.slots; ++slot) anyBeams = anyBeams || light.beamRate[slot] > 0.0;
-    }
-    if (anyBeams) film_.setReplicates(options.beamReplicates);
-
-    // The photon budget: lights in proportion to the power they send in (every photon then
-    // carries a similar power); within a light, the unguided share, the direct share, and the
-    // photon-guided ghosts in proportion to their analysed power (floored, so that a ghost the
-    // analysis underrates still gets photons).
-    double totalWeight = 0.0;
-    for (double w : lightWeight) totalWeight += w;
-    for (size_t l = 0; l < lightStates_.size() && totalWeight > 0.0; ++l) {
-        const double share = lightWeight[l] / totalWeight;
-        if (share == 0.0) continue;
-        const renderer::LightState& state = lightStates_[l];
-        if (options.mode == RenderOptions::Mode::Naive) {
-            components_.push_back({static_cast<int>(l), -1, share});
-            continue;
-        }
-        double strongest = 0.0;
-        for (int slot = 1; slot < state.slots; ++slot)
-            if (state.strategy[slot] == PathStrategy::Photons)
-                strongest = std::max(strongest, state.report.ghosts[slot - 1].powerFraction);
-        std::vector<double> ghostWeight(state.slots, 0.0);
-        double ghostTotal = 0.0;
-        for (int slot = 1; slot < state.slots; ++slot) {
-            if (state.strategy[slot] != PathStrategy::Photons) continue;
-            ghostWeight[slot] = std::max(state.report.ghosts[slot - 1].powerFraction, 1e-3 * strongest);
-            ghostTotal += ghostWeight[slot];
-        }
-        double directShare = state.strategy[0] == PathStrategy::Photons ? options.directShare : 0.0;
-        double unguidedShare = options.unguidedShare;
-        double ghostShare = ghostTotal > 0.0 ? 1.0 - unguidedShare - directShare : 0.0;
-        if (ghostShare == 0.0) {
-            const double sum = unguidedShare + directShare;
-            unguidedShare /= sum;
-            directShare /= sum;
-        }
-        components_.push_back({static_cast<int>(l), -1, share * unguidedShare});
-        if (directShare > 0.0) components_.push_back({static_cast<int>(l), 0, share * directShare});
-        for (int slot = 1; slot < state.slots; ++slot)
-            if (ghostWeight[slot] > 0.0)
-                components_.push_back({static_cast<int>(l), slot, share * ghostShare * ghostWeight[slot] / ghostTotal});
-    }
-    double cumulative = 0.0;
-    for (const renderer::PhotonComponent& c : components_) componentCdf_.push_back(cumulative += c.probability);
-    // (Its steps do not depend on the wavelength it is built at: each photon refracts at its own.)
-    for (renderer::PhotonComponent& c : components_) {
-        if (c.slot < 0) continue;
-        const renderer::LightState& state = lightStates_[c.light];
-        const std::span<const int> reflections =
-            c.slot == 0 ? std::span<const int>() : std::span<const int>(state.report.ghosts[c.slot - 1].path.reflections);
-        c.tracer = std::make_shared<const PacketTracer>(BundleTracer(lens, lens.indicesAt(kLineDNm), reflections, true));
-    }
-    if (!componentCdf_.empty()) componentCdf_.back() = 1.0;
-    batches_.resize(options.batchesPerPass);
+    if (anyBeams) film_.setReplicates(options_.beamReplicates);
 }
 
-Renderer::~Renderer() = default;
+int Renderer::beamCount(int pass, size_t light, int slot) const {
+    return renderer::beamCount(options_.seed, lightStates_[light].beamRate[slot], pass, light, slot);
+}
+
+std::vector<renderer::BeamJob> Renderer::drawBeamJobs() {
+    // Each path's beams of this pass continue its sequence in the pass's replicate.
+    std::vector<renderer::BeamJob> jobs;
+    const int replicate = replicateOfPass(statistics_.passes);
+    for (size_t l = 0; l < lightStates_.size(); ++l) {
+        const renderer::LightState& light = lightStates_[l];
+        for (int slot = 1; slot < light.slots; ++slot) {
+            const int count = beamCount(statistics_.passes, l, slot);
+            std::uint64_t& drawn = beamsDrawn_[l][static_cast<size_t>(slot) * options_.beamReplicates + replicate];
+            for (int k = 0; k < count; ++k) {
+                renderer::BeamJob job;
+                job.light = static_cast<int>(l);
+                job.slot = slot;
+                job.index = k;
+                job.replicate = replicate;
+                job.sequenceIndex = drawn++;
+                jobs.push_back(std::move(job));
+            }
+        }
+    }
+    return jobs;
+}
+
+void Renderer::runPass() {
+    const auto start = std::chrono::steady_clock::now();
+    const int batches = options_.batchesPerPass;
+    const int replicate = replicateOfPass(statistics_.passes);
+    std::vector<renderer::BeamJob> beamJobs = drawBeamJobs();
+    const renderer::PhotonBatchInputs batchInputs{*lens_, options_, tracer_, indexTable_, lightStates_, components_,
+                                                  componentCdf_, scatterSourceLayer_, tallies_.size()};
+    // Beams first (they cost more each), then the photon batches: one loop balances both.
+    const int jobs = static_cast<int>(beamJobs.size()) + batches;
+    tbb::parallel_for(tbb::blocked_range<int>(0, jobs, 1), [&](const tbb::blocked_range<int>& range) {
+        for (int j = range.begin(); j != range.end(); ++j) {
+            if (j < static_cast<int>(beamJobs.size()))
+                renderer::traceBeam(*lens_, options_, tracer_, lightStates_[beamJobs[j].light], statistics_.passes,
+                                    beamJobs[j]);
+            else
+                renderer::traceBatch(batchInputs, batchesDone_ + (j - static_cast<int>(beamJobs.size())),
+                                     batches_[j - beamJobs.size()]);
+        }
+    });
+    merge(batches_, beamJobs);
+    addPassTallies(beamJobs, replicate);
+    film_.endPass(options_.photonsPerPass());
+    batchesDone_ += batches;
+    ++statistics_.passes;
+    statistics_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
 
 void Renderer::merge(const std::vector<renderer::BatchResult>& batches, const std::vector<renderer::BeamJob>& beams) {
     const int bandCount = film_.bandCount();
@@ -438,47 +287,7 @@ void Renderer::merge(const std::vector<renderer::BatchResult>& batches, const st
     });
 }
 
-int Renderer::beamCount(int pass, size_t light, int slot) const {
-    return renderer::beamCount(options_.seed, lightStates_[light].beamRate[slot], pass, light, slot);
-}
-
-void Renderer::runPass() {
-    const auto start = std::chrono::steady_clock::now();
-    const int batches = options_.batchesPerPass;
-    std::vector<renderer::BeamJob> beamJobs;
-    const int replicate = replicateOfPass(statistics_.passes);
-    for (size_t l = 0; l < lightStates_.size(); ++l) {
-        const renderer::LightState& light = lightStates_[l];
-        for (int slot = 1; slot < light.slots; ++slot) {
-            const int count = beamCount(statistics_.passes, l, slot);
-            std::uint64_t& drawn = beamsDrawn_[l][static_cast<size_t>(slot) * options_.beamReplicates + replicate];
-            for (int k = 0; k < count; ++k) {
-                renderer::BeamJob job;
-                job.light = static_cast<int>(l);
-                job.slot = slot;
-                job.index = k;
-                job.replicate = replicate;
-                job.sequenceIndex = drawn++;
-                beamJobs.push_back(std::move(job));
-            }
-        }
-    }
-    const renderer::PhotonBatchInputs batchInputs{*lens_, options_, tracer_, indexTable_, lightStates_, components_,
-                                                  componentCdf_, scatterSourceLayer_, tallies_.size()};
-    // Beams first (they cost more each), then the photon batches: one loop balances both.
-    const int jobs = static_cast<int>(beamJobs.size()) + batches;
-    tbb::parallel_for(tbb::blocked_range<int>(0, jobs, 1), [&](const tbb::blocked_range<int>& range) {
-        for (int j = range.begin(); j != range.end(); ++j) {
-            if (j < static_cast<int>(beamJobs.size()))
-                renderer::traceBeam(*lens_, options_, tracer_, lightStates_[beamJobs[j].light], statistics_.passes,
-                                    beamJobs[j]);
-            else
-                renderer::traceBatch(batchInputs, batchesDone_ + (j - static_cast<int>(beamJobs.size())),
-                                     batches_[j - beamJobs.size()]);
-        }
-    });
-    merge(batches_, beamJobs);
-
+void Renderer::addPassTallies(const std::vector<renderer::BeamJob>& beamJobs, int replicate) {
     const double inverseCount = 1.0 / options_.batchPhotons;
     for (const renderer::BatchResult& batch : batches_) {
         for (size_t t = 0; t < tallies_.size(); ++t) {
@@ -526,10 +335,6 @@ void Renderer::runPass() {
     for (size_t t = 0; t < tallies_.size(); ++t)
         if (tallies_[t].strategy == PathStrategy::Beams) tallies_[t].replicateSums[replicate] += passTally[t];
     for (int l = 0; l < kFixedLayerCount; ++l) layerTallies_[l].replicateSums[replicate] += passLayer[l];
-    film_.endPass(options_.photonsPerPass());
-    batchesDone_ += batches;
-    ++statistics_.passes;
-    statistics_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 std::vector<float> Renderer::layerXyz(int layer) const {

@@ -258,7 +258,11 @@ public:
     void loadCheckpoint(const std::string& path);
 
 private:
+    void addScatterSourceLayers();
+    void setUpFilm();
+    std::vector<renderer::BeamJob> drawBeamJobs();
     void merge(const std::vector<renderer::BatchResult>& batches, const std::vector<renderer::BeamJob>& beams);
+    void addPassTallies(const std::vector<renderer::BeamJob>& beams, int replicate);
     std::uint64_t fingerprint() const;
     // The beams a path draws in a pass (renderer::beamCount at the path's rate).
     int beamCount(int pass, size_t light, int slot) const;

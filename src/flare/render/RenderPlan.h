@@ -1,8 +1,15 @@
 // The plan of a render's passes: for every light, which strategy owns each of its paths and how
-// many beams each beam-rendered path draws per pass (LightState); and the components of the
-// mixture the pass budget's photons are drawn from. Internal to the renderer (Render.h), whose
-// constructor plans every light once. A light's paths are its slots: 0 the direct image, 1..G the
-// enumerated ghosts (and order-4 chains) in the report's order.
+// many beams each beam-rendered path draws per pass; and the mixture the pass budget's photons are
+// drawn from. Internal to the renderer (Render.h), whose constructor plans every light once:
+//   planLight       the ghost analysis, the choice of order-4 chains, every path's spectrum in the
+//                   light and the second pruning, the guide masks, each path's strategy (beams,
+//                   guided photons or unguided: beams only for directional lights, decided here)
+//                   and the beams' rates (BeamStrategy.h);
+//   photonComponents  the photon budget: lights in proportion to the power they send in, and
+//                   within a light the unguided tracer, the direct image and the photon-guided
+//                   ghosts.
+// A light's paths are its slots: 0 the direct image, 1..G the enumerated ghosts (and order-4
+// chains) in the report's order.
 #pragma once
 
 #include <memory>
@@ -40,6 +47,15 @@ struct LightState {
     int scatterTally() const { return tallyOffset + slots + 1; }
 };
 
+struct PlannedLight {
+    LightState state;  // every per-ghost layer −1 and the tally offset 0: the renderer sets them
+    LightPlan plan;
+};
+
+// Plans one light. `anyScattering`: the scene scatters light (interior finishes, dust, grease or
+// bulk media), so that a light whose paths all miss the sensor may still reach it.
+PlannedLight planLight(const LensSystem& lens, const LightSpec& spec, const RenderOptions& options, bool anyScattering);
+
 // One component of the photon mixture: a light's unguided tracer or one of its photon-guided paths.
 struct PhotonComponent {
     int light = 0;
@@ -48,5 +64,13 @@ struct PhotonComponent {
     // A guided path's forced sequence in SIMD packets, its photons at their own wavelengths.
     std::shared_ptr<const PacketTracer> tracer;
 };
+
+// The photon budget's components; `lightWeight`: per light, the power it sends in (0: skipped).
+std::vector<PhotonComponent> photonComponents(const LensSystem& lens, const RenderOptions& options,
+                                              const std::vector<LightState>& lights,
+                                              const std::vector<double>& lightWeight);
+// The components' cumulative probabilities, the last exactly 1 (a photon's component is the first
+// whose cumulative probability exceeds its uniform).
+std::vector<double> cumulativeProbabilities(const std::vector<PhotonComponent>& components);
 
 }  // namespace flare::renderer
