@@ -258,6 +258,8 @@ public:
     void loadCheckpoint(const std::string& path);
 
 private:
+    // The passes' plan (RenderPlan.h) and work (PhotonBatches.h, BeamStrategy.h); the checkpoints
+    // are in RenderCheckpoint.cpp.
     void addScatterSourceLayers();
     void setUpFilm();
     std::vector<renderer::BeamJob> drawBeamJobs();
