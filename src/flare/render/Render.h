@@ -34,6 +34,15 @@
 // interleave `beamReplicates` independent replicates (pass p extends replicate p mod K's Sobol'
 // sequences; core/Replicates.h), and the spread between the replicates gives it. Passes are the
 // unit of checkpoints.
+//
+// The code, internal headers in the namespace flare::renderer:
+//   RenderPlan.h          the plan of every light (the paths' strategies, masks and beam rates)
+//                         and the photon budget's mixture;
+//   BeamStrategy.h        beams: the probe beam, the beams' rates and counts, a beam's trace;
+//   PhotonBatches.h       a batch of guided and unguided photons;
+//   SensorHit.h           what the strategies hand to the merge;
+//   Render.cpp            the renderer: the passes, their merge into the film, the tallies;
+//   RenderCheckpoint.cpp  its checkpoints.
 #pragma once
 
 #include <array>
