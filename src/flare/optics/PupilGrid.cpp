@@ -44,30 +44,58 @@ PupilGrid PupilGrid::forDirection(const LensSystem& lens, const glm::dvec3& dire
     return grid;
 }
 
+namespace {
+
+// Of the first surface: its largest |sag| over the clear aperture, and how far it reaches
+// towards the object side (a concave front's rim lies ahead of its vertex).
+struct FrontSag {
+    double maxMm = 0.0, aheadMm = 0.0;
+};
+FrontSag frontSag(const Surface& first) {
+    FrontSag out;
+    for (int k = 0; k <= 32; ++k) {
+        const double r = first.semiApertureMm * k / 32.0;
+        double sag = 0.0;
+        if (!first.sagMm(r * r, &sag)) continue;
+        out.maxMm = std::max(out.maxMm, std::abs(sag));
+        out.aheadMm = std::max(out.aheadMm, -sag);
+    }
+    return out;
+}
+
+// How far ahead of the plane through the vertex, normal to `direction`, an aperture point can lie.
+double reachMm(const Surface& first, const FrontSag& sag, const glm::dvec3& direction) {
+    const double sinTheta = std::sqrt(std::max(0.0, 1.0 - direction.z * direction.z));
+    return sag.aheadMm + first.semiApertureMm * sinTheta;
+}
+
+}  // namespace
+
+bool PupilGrid::inFront(const LensSystem& lens, const glm::dvec3& sourceMm) {
+    const Surface& first = lens.surface(0);
+    const glm::dvec3 toVertex = glm::dvec3(0.0, 0.0, first.vertexZMm) - sourceMm;
+    const double distanceMm = glm::length(toVertex);
+    if (!(toVertex.z > 0.0)) return false;
+    return distanceMm > reachMm(first, frontSag(first), toVertex / distanceMm) + 1e-6;
+}
+
 PupilGrid PupilGrid::forPoint(const LensSystem& lens, const glm::dvec3& sourceMm) {
+    if (!inFront(lens, sourceMm))
+        throw std::invalid_argument("PupilGrid::forPoint: the source is not in front of the lens's front surface");
     const Surface& first = lens.surface(0);
     const glm::dvec3 vertexMm(0.0, 0.0, first.vertexZMm);
     PupilGrid grid = forDirection(lens, vertexMm - sourceMm);
     grid.fromPoint = true;
     grid.sourceMm = sourceMm;
     const double distanceMm = glm::length(vertexMm - sourceMm);
-    double maxSag = 0.0, aheadMm = 0.0;  // |sag|, and how far the surface reaches towards the light
-    for (int k = 0; k <= 32; ++k) {
-        const double r = first.semiApertureMm * k / 32.0;
-        double sag = 0.0;
-        if (!first.sagMm(r * r, &sag)) continue;
-        maxSag = std::max(maxSag, std::abs(sag));
-        aheadMm = std::max(aheadMm, -sag);
-    }
     // An aperture point lies within r0 + |sag|·sinθ of the central ray and at most `reach` ahead
     // of the plane along it; the ray from the source through it crosses the plane at most
     // D / (D − reach) times farther out (D: the source's distance from the plane; points behind
     // the plane cross it nearer the centre).
+    const FrontSag sag = frontSag(first);
     const double sinTheta = std::sqrt(std::max(0.0, 1.0 - grid.direction.z * grid.direction.z));
-    const double reachMm = aheadMm + first.semiApertureMm * sinTheta;
-    if (!(distanceMm > reachMm + 1e-6) || !(grid.direction.z > 0.0))
-        throw std::invalid_argument("PupilGrid::forPoint: the source is not in front of the lens's front surface");
-    grid.halfSizeMm = 1.01 * (first.semiApertureMm + maxSag * sinTheta) * distanceMm / (distanceMm - reachMm) + 1e-3;
+    const double reach = reachMm(first, sag, grid.direction);
+    grid.halfSizeMm = 1.01 * (first.semiApertureMm + sag.maxMm * sinTheta) * distanceMm / (distanceMm - reach) + 1e-3;
     // The most inclined ray of the window leans by up to α from the central one: start far enough
     // back that it too begins in front of the lens's first point.
     const double alpha = std::atan(std::sqrt(2.0) * grid.halfSizeMm / distanceMm);

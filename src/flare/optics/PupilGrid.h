@@ -34,8 +34,11 @@ struct PupilGrid {
     glm::dvec3 sourceMm{0.0};
 
     static PupilGrid forDirection(const LensSystem& lens, const glm::dvec3& direction);
-    // The rays from a point in front of the lens (z below the first surface's foremost point).
+    // The rays from a point in front of the lens (inFront; else std::invalid_argument).
     static PupilGrid forPoint(const LensSystem& lens, const glm::dvec3& sourceMm);
+    // Whether rays from the point can be named on a plane through the first vertex: it lies
+    // ahead of the vertex, farther than the front surface reaches towards it.
+    static bool inFront(const LensSystem& lens, const glm::dvec3& sourceMm);
     // The same plane and window with the rays from another point (a disk light's sampled point):
     // the (a, b) of a mask or a lattice name the same plane points.
     PupilGrid withSource(const glm::dvec3& pointMm) const {

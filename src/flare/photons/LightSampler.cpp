@@ -30,8 +30,11 @@ double frontDepthMm(const LensSystem& lens) {
 
 LightSampler::LightSampler(const LightSpec& light, const LensSystem& lens)
     : light_(light),
-      grid_(light.type == LightSpec::Type::Directional ? PupilGrid::forDirection(lens, light.travelDirection())
-                                                       : PupilGrid::forPoint(lens, light.positionMm)) {
+      // (A point the lens cannot see from in front, which a scene never holds, keeps parallel
+      // rays along its direction: the render then finds it behind the lens and skips it.)
+      grid_(light.type != LightSpec::Type::Directional && PupilGrid::inFront(lens, light.positionMm)
+                ? PupilGrid::forPoint(lens, light.positionMm)
+                : PupilGrid::forDirection(lens, light.travelDirection())) {
     const double depth = frontDepthMm(lens);
     // Widest angle between an emitted ray and the central direction.
     double spreadRad = 0.0;

@@ -34,6 +34,15 @@
 // interleave `beamReplicates` independent replicates (pass p extends replicate p mod K's Sobol'
 // sequences; core/Replicates.h), and the spread between the replicates gives it. Passes are the
 // unit of checkpoints.
+//
+// The code, internal headers in the namespace flare::renderer:
+//   RenderPlan.h          the plan of every light (the paths' strategies, masks and beam rates)
+//                         and the photon budget's mixture;
+//   BeamStrategy.h        beams: the probe beam, the beams' rates and counts, a beam's trace;
+//   PhotonBatches.h       a batch of guided and unguided photons;
+//   SensorHit.h           what the strategies hand to the merge;
+//   Render.cpp            the renderer: the passes, their merge into the film, the tallies;
+//   RenderCheckpoint.cpp  its checkpoints.
 #pragma once
 
 #include <array>
@@ -206,6 +215,15 @@ struct RenderStatistics {
     std::array<double, kFixedLayerCount> largestPhotonY{};
 };
 
+// The renderer's internals: its plan (RenderPlan.h) and the strategies' work (PhotonBatches.h,
+// BeamStrategy.h).
+namespace renderer {
+struct LightState;
+struct PhotonComponent;
+struct BatchResult;
+struct BeamJob;
+}  // namespace renderer
+
 class Renderer {
 public:
     // Analyses the ghosts of every light, plans the budget and allocates the film. `lens` is
@@ -255,29 +273,28 @@ public:
     void loadCheckpoint(const std::string& path);
 
 private:
-    struct Component;
-    struct LightState;
-    struct BatchResult;
-    struct BeamJob;
-    void traceBatch(std::int64_t batchIndex, BatchResult& out) const;
-    void traceBeam(BeamJob& job) const;
-    void merge(const std::vector<BatchResult>& batches, const std::vector<BeamJob>& beams);
+    // The passes' plan (RenderPlan.h) and work (PhotonBatches.h, BeamStrategy.h); the checkpoints
+    // are in RenderCheckpoint.cpp.
+    void addScatterSourceLayers();
+    void setUpFilm();
+    std::vector<renderer::BeamJob> drawBeamJobs();
+    void merge(const std::vector<renderer::BatchResult>& batches, const std::vector<renderer::BeamJob>& beams);
+    void addPassTallies(const std::vector<renderer::BeamJob>& beams, int replicate);
     std::uint64_t fingerprint() const;
-    // The beams a path draws in a pass: the floor of its rate, and one more with the probability
-    // of its fraction (a function of the seed, the pass and the path).
+    // The beams a path draws in a pass (renderer::beamCount at the path's rate).
     int beamCount(int pass, size_t light, int slot) const;
     int replicateOfPass(int pass) const { return pass % options_.beamReplicates; }
 
     const LensSystem* lens_;
     RenderOptions options_;
-    std::vector<LightState> lightStates_;
+    std::vector<renderer::LightState> lightStates_;
     std::vector<LightPlan> lightPlans_;
-    std::vector<Component> components_;
+    std::vector<renderer::PhotonComponent> components_;
     std::vector<double> componentCdf_;
     std::vector<PathTally> tallies_;
     std::vector<PathTally> layerTallies_;
     std::vector<PathTally> scatterSourceTallies_;
-    std::vector<BatchResult> batches_;  // scratch, one per batch of a pass
+    std::vector<renderer::BatchResult> batches_;  // scratch, one per batch of a pass
     std::vector<std::string> layerNames_;
     std::vector<int> scatterSourceLayer_;  // per scatter source: its film layer, −1 if none
     IndexTable indexTable_;

@@ -736,12 +736,14 @@ TEST(Render, CheckpointWithANonFiniteValueIsRefused) {
 
 TEST(Render, LightBehindTheLensIsSkippedAndReported) {
     Scene scene = doubletScene();
+    // (A scene file cannot hold such a light: buildSceneLens refuses it. The renderer, given one
+    // through the library, skips it.)
+    const LensSystem lens = buildSceneLens(scene);
     LightSpec behind = scene.lights.front();
     behind.name = "behind";
     behind.type = LightSpec::Type::Point;
     behind.positionMm = {0.0, 0.0, 500.0};  // behind the sensor
     scene.lights.push_back(behind);
-    const LensSystem lens = buildSceneLens(scene);
     Renderer r(lens, scene.lights, optionsFor(scene, lens, RenderOptions::Mode::Guided));
     ASSERT_EQ(r.lights().size(), 2u);
     EXPECT_FALSE(r.lights()[0].skipped);

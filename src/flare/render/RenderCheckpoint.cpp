@@ -1,0 +1,143 @@
+// Renderer's checkpoints (Render.h): the film, the tallies, the statistics and the passes done,
+// with a fingerprint of everything that decides which random numbers go where, so that a render
+// resumes only from its own checkpoints.
+#include "flare/render/Render.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+
+#include "flare/core/Error.h"
+#include "flare/render/RenderPlan.h"
+
+namespace flare {
+
+namespace {
+constexpr std::uint64_t kCheckpointMagic = 0x3354504b43524c46ull;  // "FLRCKPT3"
+// More passes than any render makes (2^24 passes of 65 536 photons: 10^12 photons); the bound keeps
+// a hostile checkpoint from making the load recount beams for hours.
+constexpr int kMaxCheckpointPasses = 1 << 24;
+}
+
+std::uint64_t Renderer::fingerprint() const {
+    // FNV-1a over everything that decides which random numbers go where.
+    std::uint64_t hash = 0xcbf29ce484222325ull;
+    auto mix = [&](const void* data, size_t size) {
+        const auto* bytes = static_cast<const unsigned char*>(data);
+        for (size_t i = 0; i < size; ++i) hash = (hash ^ bytes[i]) * 0x100000001b3ull;
+    };
+    mix(&options_.seed, sizeof options_.seed);
+    const int ints[] = {static_cast<int>(options_.mode), static_cast<int>(options_.higherOrder), options_.maxBounces,
+                        options_.batchPhotons,
+                        options_.batchesPerPass, film_.layerCount(), options_.film.widthPx, options_.film.heightPx,
+                        static_cast<int>(options_.film.kernel), lens_->surfaceCount(), options_.beamsPerPass,
+                        options_.correctionPhotonsPerBeam, options_.beamMeshLevel,
+                        static_cast<int>(std::lround(options_.testBeamShiftPx * 1024.0)), options_.maxAnalysedChains,
+                        options_.smoothNeighbours, options_.tabulatedReflectance ? 1 : 0,
+                        options_.strayLightSampling ? 1 : 0, film_.replicates(), options_.tracePhotons ? 1 : 0};
+    mix(ints, sizeof ints);
+    for (const renderer::PhotonComponent& c : components_) {
+        mix(&c.light, sizeof c.light);
+        mix(&c.slot, sizeof c.slot);
+        mix(&c.probability, sizeof c.probability);
+    }
+    for (const renderer::LightState& light : lightStates_) mix(light.beamRate.data(), light.beamRate.size() * sizeof(double));
+    const double doubles[] = {options_.film.radiusPx, options_.materials.housingAlbedo, options_.materials.edgeAlbedo,
+                              options_.materials.irisAlbedo, lens_->sensorZMm(), lens_->iris().radiusMm()};
+    mix(doubles, sizeof doubles);
+    mix(lens_->name().data(), lens_->name().size());
+    return hash;
+}
+
+void Renderer::saveCheckpoint(const std::string& path) const {
+    const std::string partial = path + ".partial";
+    {
+        std::ofstream out(partial, std::ios::binary | std::ios::trunc);
+        if (!out) throw std::runtime_error("cannot write checkpoint " + partial);
+        const std::uint64_t header[] = {kCheckpointMagic, fingerprint(), static_cast<std::uint64_t>(batchesDone_)};
+        out.write(reinterpret_cast<const char*>(header), sizeof header);
+        out.write(reinterpret_cast<const char*>(&statistics_), sizeof statistics_);
+        for (const auto* list : {&tallies_, &layerTallies_, &scatterSourceTallies_})
+            for (const PathTally& t : *list) {
+                const double sums[] = {t.sumMeans, t.sumSquaredMeans};
+                out.write(reinterpret_cast<const char*>(sums), sizeof sums);
+                out.write(reinterpret_cast<const char*>(t.replicateSums.data()), sizeof t.replicateSums);
+            }
+        film_.save(out);
+        out.flush();
+        if (!out) {
+            std::filesystem::remove(partial);
+            throw std::runtime_error("cannot write checkpoint " + partial);
+        }
+    }
+    std::filesystem::rename(partial, path);
+}
+
+void Renderer::loadCheckpoint(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw InputError(path, 0, "cannot open the checkpoint");
+    std::uint64_t header[3] = {};
+    in.read(reinterpret_cast<char*>(header), sizeof header);
+    if (!in || header[0] != kCheckpointMagic) throw InputError(path, 0, "not a flare render checkpoint");
+    if (header[1] != fingerprint())
+        throw InputError(path, 0, "the checkpoint was written by a render with a different scene, lens, seed or options");
+    try {
+        RenderStatistics statistics;
+        in.read(reinterpret_cast<char*>(&statistics), sizeof statistics);
+        std::vector<PathTally> tallies = tallies_, layerTallies = layerTallies_, sourceTallies = scatterSourceTallies_;
+        for (auto* list : {&tallies, &layerTallies, &sourceTallies})
+            for (PathTally& t : *list) {
+                double sums[2] = {};
+                in.read(reinterpret_cast<char*>(sums), sizeof sums);
+                in.read(reinterpret_cast<char*>(t.replicateSums.data()), sizeof t.replicateSums);
+                t.sumMeans = sums[0], t.sumSquaredMeans = sums[1];
+            }
+        if (!in) throw std::runtime_error("checkpoint: truncated");
+        // The doubles are taken as written: a corrupt or hostile file could hold a NaN or an
+        // infinity, which would turn every power reported from here on into NaN. Photon counts
+        // and times are never negative, nor are sums of squares; a beam path's sum can be (its
+        // corrections may outweigh a pass's beams).
+        auto bad = [](double v) { return !std::isfinite(v) || v < 0.0; };
+        bool valid = !bad(statistics.seconds) && !bad(statistics.unguidedEmittedPowerW) &&
+                     !bad(statistics.unguidedEnteredPowerW) && statistics.photons >= 0 && statistics.passes >= 0 &&
+                     statistics.beams >= 0 && statistics.beamRays >= 0 && statistics.correctionPhotons >= 0;
+        for (const FateTally& f : statistics.fates) valid = valid && !bad(f.powerW) && f.photons >= 0;
+        for (double y : statistics.largestPhotonY) valid = valid && !bad(y);
+        for (const auto* list : {&tallies, &layerTallies, &sourceTallies})
+            for (const PathTally& t : *list)
+                valid = valid && !bad(t.sumMeans) && !bad(t.sumSquaredMeans) &&
+                        std::all_of(t.replicateSums.begin(), t.replicateSums.end(), [](double v) { return std::isfinite(v); });
+        if (!valid) throw std::runtime_error("checkpoint: a statistic or tally is negative or not finite");
+        if (statistics.passes > kMaxCheckpointPasses ||
+            header[2] != static_cast<std::uint64_t>(statistics.passes) * static_cast<std::uint64_t>(options_.batchesPerPass))
+            throw std::runtime_error("checkpoint: its pass or batch count is out of range");
+        // Where each replicate's sequences go on: the beams its passes drew (which must be the
+        // beams the checkpoint counts).
+        std::vector<std::vector<std::uint64_t>> drawn = beamsDrawn_;
+        std::uint64_t total = 0;
+        for (auto& d : drawn) std::fill(d.begin(), d.end(), 0);
+        for (int pass = 0; pass < statistics.passes; ++pass)
+            for (size_t l = 0; l < lightStates_.size(); ++l)
+                for (int slot = 1; slot < lightStates_[l].slots; ++slot) {
+                    const int count = beamCount(pass, l, slot);
+                    drawn[l][static_cast<size_t>(slot) * options_.beamReplicates + replicateOfPass(pass)] += count;
+                    total += static_cast<std::uint64_t>(count);
+                }
+        if (total != static_cast<std::uint64_t>(statistics.beams))
+            throw std::runtime_error("checkpoint: its beam count is not the one its passes draw");
+        film_.load(in);  // (leaves the film as it was if it throws)
+        if (film_.passes() != statistics.passes) throw std::runtime_error("checkpoint: the film's passes differ from the statistics'");
+        statistics_ = statistics;
+        tallies_ = std::move(tallies);
+        layerTallies_ = std::move(layerTallies);
+        scatterSourceTallies_ = std::move(sourceTallies);
+        batchesDone_ = static_cast<std::int64_t>(header[2]);
+        beamsDrawn_ = std::move(drawn);
+    } catch (const std::runtime_error& e) {
+        throw InputError(path, 0, e.what());
+    }
+}
+
+}  // namespace flare
