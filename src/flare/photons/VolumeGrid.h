@@ -25,8 +25,9 @@ public:
     // Loads the float grid named `gridName` ("" = the float grid named "density" if there is one,
     // else the first float grid in name order: OpenVDB lists a file's grids by name). Any problem
     // (missing or unreadable file, not a VDB file, no such grid, a grid that is not a float grid,
-    // a non-linear (frustum) transform, negative or non-finite active values, no active voxels)
-    // throws InputError(path, 0, problem).
+    // a non-linear (frustum) transform, negative or non-finite active values, no active voxels,
+    // a level set, a corrupt or hostile file: VdbFile checks every byte before OpenVDB reads the
+    // grid) throws InputError(path, 0, problem).
     static VolumeGrid load(const std::string& path, const std::string& gridName = "");
 
     // (name, value type) of every grid in a .vdb file, in name order (the type as OpenVDB names
