@@ -3,14 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <limits>
 #include <mutex>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
-#include <system_error>
 #include <utility>
 #include <vector>
 
@@ -22,6 +19,7 @@
 #include <openvdb/tree/ValueAccessor.h>
 
 #include "flare/core/Error.h"
+#include "flare/core/OutputFiles.h"
 #include "flare/photons/VdbFile.h"
 
 namespace flare {
@@ -340,24 +338,24 @@ void VolumeGrid::forEachActiveBox(
     }
 }
 
-void VolumeGrid::save(const std::string& path) const {
+void VolumeGrid::save(OutputFiles& outputs, const std::string& path) const {
     if (!impl_) throw std::logic_error("VolumeGrid::save: the grid is empty");
     initializeOpenVdb();
-    const std::string temporary = path + ".partial";
     try {
-        openvdb::io::File file(temporary);
-        file.write(openvdb::GridCPtrVec{impl_->grid});
-        file.close();
+        openvdb::io::File out(outputs.file(path));
+        out.write(openvdb::GridCPtrVec{impl_->grid});
+        out.close();
     } catch (const std::exception& e) {
-        std::remove(temporary.c_str());
         throw std::runtime_error("cannot write " + path + ": " + e.what());
     }
-    std::error_code ec;
-    std::filesystem::rename(temporary, path, ec);
-    if (ec) {
-        std::remove(temporary.c_str());
-        throw std::runtime_error("cannot write " + path + ": " + ec.message());
-    }
+}
+
+void VolumeGrid::save(const std::string& path) const {
+    if (!impl_) throw std::logic_error("VolumeGrid::save: the grid is empty");
+    OutputFiles outputs;
+    outputs.add(path);
+    save(outputs, path);
+    outputs.commit();
 }
 
 // ---- Sampler ------------------------------------------------------------------------------------

@@ -18,6 +18,8 @@
 
 #include <glm/vec3.hpp>
 
+#include "flare/core/OutputFiles.h"
+
 namespace flare {
 
 class VolumeGrid {
@@ -93,9 +95,12 @@ public:
     Sampler sampler() const;
 
     // Writes a .vdb file holding one float grid named name() (with its description metadata),
-    // atomically: to path + ".partial", then renamed over path. Throws std::runtime_error (path and
-    // reason) if the file cannot be written, std::logic_error for an empty grid.
+    // all or nothing (OutputFiles: a temporary beside the target, renamed over it). Throws
+    // std::runtime_error (path and reason) if the file cannot be written, std::logic_error for an
+    // empty grid. The second form writes into `outputs`' temporary for `path`, moved into place by
+    // their commit().
     void save(const std::string& path) const;
+    void save(OutputFiles& outputs, const std::string& path) const;
 
     // Builds a grid voxel by voxel (makeVolume uses it). Voxel (i, j, k) is the box
     // [cornerMm + (i, j, k)·voxelMm, cornerMm + (i + 1, j + 1, k + 1)·voxelMm]; set() activates it.

@@ -1,6 +1,7 @@
 #include "flare/render/Render.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -1106,28 +1107,27 @@ constexpr std::uint64_t kCheckpointMagic = 0x3354504b43524c46ull;  // "FLRCKPT3"
 constexpr int kMaxCheckpointPasses = 1 << 24;
 }
 
-void Renderer::saveCheckpoint(const std::string& path) const {
-    const std::string partial = path + ".partial";
-    {
-        std::ofstream out(partial, std::ios::binary | std::ios::trunc);
-        if (!out) throw std::runtime_error("cannot write checkpoint " + partial);
-        const std::uint64_t header[] = {kCheckpointMagic, fingerprint(), static_cast<std::uint64_t>(batchesDone_)};
-        out.write(reinterpret_cast<const char*>(header), sizeof header);
-        out.write(reinterpret_cast<const char*>(&statistics_), sizeof statistics_);
-        for (const auto* list : {&tallies_, &layerTallies_, &scatterSourceTallies_})
-            for (const PathTally& t : *list) {
-                const double sums[] = {t.sumMeans, t.sumSquaredMeans};
-                out.write(reinterpret_cast<const char*>(sums), sizeof sums);
-                out.write(reinterpret_cast<const char*>(t.replicateSums.data()), sizeof t.replicateSums);
-            }
-        film_.save(out);
-        out.flush();
-        if (!out) {
-            std::filesystem::remove(partial);
-            throw std::runtime_error("cannot write checkpoint " + partial);
+void Renderer::saveCheckpoint(OutputFiles& outputs, const std::string& path) const {
+    std::ofstream out(outputs.file(path), std::ios::binary | std::ios::trunc);
+    const std::uint64_t header[] = {kCheckpointMagic, fingerprint(), static_cast<std::uint64_t>(batchesDone_)};
+    out.write(reinterpret_cast<const char*>(header), sizeof header);
+    out.write(reinterpret_cast<const char*>(&statistics_), sizeof statistics_);
+    for (const auto* list : {&tallies_, &layerTallies_, &scatterSourceTallies_})
+        for (const PathTally& t : *list) {
+            const double sums[] = {t.sumMeans, t.sumSquaredMeans};
+            out.write(reinterpret_cast<const char*>(sums), sizeof sums);
+            out.write(reinterpret_cast<const char*>(t.replicateSums.data()), sizeof t.replicateSums);
         }
-    }
-    std::filesystem::rename(partial, path);
+    film_.save(out);
+    out.close();
+    if (!out) throw std::runtime_error("cannot write checkpoint " + path + ": " + std::strerror(errno));
+}
+
+void Renderer::saveCheckpoint(const std::string& path) const {
+    OutputFiles outputs;
+    outputs.add(path, "checkpoint");
+    saveCheckpoint(outputs, path);
+    outputs.commit();
 }
 
 void Renderer::loadCheckpoint(const std::string& path) {
