@@ -1,6 +1,5 @@
 #include "PreviewCommand.h"
 
-#include "Output.h"
 #include "StarburstReport.h"
 
 #include <chrono>
@@ -8,6 +7,7 @@
 #include <memory>
 #include <string>
 
+#include "flare/core/OutputFiles.h"
 #include "flare/film/ImageIO.h"
 #include "flare/scene/Scene.h"
 #include "flare/scene/ScenePreview.h"
@@ -24,12 +24,15 @@ struct PreviewCommandOptions {
     bool floatLayers = false;
     bool noDiffraction = false;
     bool quiet = false;
+    bool pngGiven = false;  // --png given, even as ""
 };
 
 void run(const PreviewCommandOptions& o) {
     const auto start = std::chrono::steady_clock::now();
-    checkWritable(o.exr);
-    if (!o.png.empty()) checkWritable(o.png);
+    // Every output is checked before any work and written all or nothing.
+    OutputFiles outputs;
+    outputs.add(o.exr, "-o");
+    if (o.pngGiven) outputs.add(o.png, "--png");
     Scene scene = o.scene.empty() ? defaultScene() : loadScene(o.scene);
     if (o.noDiffraction) scene.render.diffraction = false;
     const LensSystem lens = buildSceneLens(scene);
@@ -58,8 +61,9 @@ void run(const PreviewCommandOptions& o) {
         {"scene", scene.sourceFile.empty() ? "embedded default scene" : scene.sourceFile},
         {"lens", lens.name()},
     };
-    writeExr(o.exr, layers, metadata, storage);
-    if (!o.png.empty()) writePng(o.png, layers.front(), pngExposure);
+    writeExr(outputs, o.exr, layers, metadata, storage);
+    if (o.pngGiven) writePng(outputs, o.png, layers.front(), pngExposure);
+    outputs.commit();
 
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (!o.quiet)
@@ -84,7 +88,10 @@ void addPreviewCommand(CLI::App& app) {
                       "leave the light's own image geometric: no starburst (as the scene's render.diffraction: false)");
     preview->add_flag("--float-layers", o->floatLayers, "with --layers: store the per-ghost layers as exact 32-bit float");
     preview->add_flag("--quiet", o->quiet, "no statistics on stderr");
-    preview->callback([o] { run(*o); });
+    preview->callback([o, preview] {
+        o->pngGiven = preview->count("--png") > 0;
+        run(*o);
+    });
 }
 
 }  // namespace flare::cli
