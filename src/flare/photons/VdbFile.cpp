@@ -483,6 +483,7 @@ VdbFile::VdbFile(const std::string& path) : path_(path) {
     openvdb::initialize();  // the registries of grid, map and metadata types
     std::error_code ec;
     const fs::file_status status = fs::status(path, ec);
+    if (ec && ec != std::errc::no_such_file_or_directory) throw InputError(path, 0, "cannot read the file: " + ec.message());
     if (!fs::exists(status)) throw InputError(path, 0, "no such file");
     if (fs::is_directory(status)) throw InputError(path, 0, "is a directory, not a .vdb file");
     if (!fs::is_regular_file(status)) throw InputError(path, 0, "not a regular file");

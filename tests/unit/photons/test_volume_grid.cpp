@@ -938,6 +938,17 @@ TEST_F(VolumeCliTest, BadInputExitsWithCode2AndWritesNothing) {
     EXPECT_FALSE(fs::exists(out + ".partial"));
 }
 
+// A grid name that is not UTF-8 (bytes from the file): --json replaces them (U+FFFD) instead of
+// failing with exit code 1.
+TEST_F(VolumeCliTest, GridNameThatIsNotUtf8DoesNotBreakJson) {
+    const std::string file = writeVdb("name.vdb", {floatGrid("dens\xffity", 1.0f)});
+    const CliRun r = runCli("volume info " + file + " --json");
+    ASSERT_EQ(r.exitCode, 0) << r.out;
+    const nlohmann::json j = nlohmann::json::parse(r.out);
+    EXPECT_EQ(j["grid"], "dens\xef\xbf\xbdity");
+    EXPECT_EQ(j["grids"][0]["name"], "dens\xef\xbf\xbdity");
+}
+
 // Issue 33: the file of the fuzz campaign aborted `flare volume info` with heap corruption
 // ("malloc(): corrupted top size"). Now exit 2, naming the file and what is wrong with it.
 TEST_F(VolumeCliTest, FileWithDuplicatedBytesExitsWithCode2) {
