@@ -78,31 +78,25 @@ fs::path resolveLinks(const std::string& path, const std::string& what) {
 bool copyInto(const std::string& from, int fd) {
     const int in = ::open(from.c_str(), O_RDONLY | O_CLOEXEC);
     if (in < 0) return false;
+    const auto finish = [in](bool ok) {
+        const int saved = errno;
+        ::close(in);
+        errno = saved;
+        return ok;
+    };
     char buffer[1 << 16];
     for (;;) {
         const ssize_t n = ::read(in, buffer, sizeof buffer);
-        if (n == 0) break;
-        if (n < 0) {
-            if (errno == EINTR) continue;
-            const int saved = errno;
-            ::close(in);
-            errno = saved;
-            return false;
-        }
+        if (n == 0) return finish(true);
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0) return finish(false);
         for (ssize_t done = 0; done < n;) {
             const ssize_t w = ::write(fd, buffer + done, static_cast<std::size_t>(n - done));
-            if (w < 0) {
-                if (errno == EINTR) continue;
-                const int saved = errno;
-                ::close(in);
-                errno = saved;
-                return false;
-            }
+            if (w < 0 && errno == EINTR) continue;
+            if (w < 0) return finish(false);
             done += w;
         }
     }
-    ::close(in);
-    return true;
 }
 
 // Ignores SIGPIPE while it lives: a reader that goes away is a write error (EPIPE) to report, not
