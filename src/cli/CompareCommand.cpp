@@ -1,4 +1,5 @@
 #include "CompareCommand.h"
+#include "Output.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -79,7 +80,7 @@ void run(const CompareCommandOptions& o) {
     const ImageLayer a = readLayerSum(o.a, o.layer);
     const ImageLayer b = readLayerSum(o.b, o.layer);
     const ImageComparison comparison = compareImages(a, b, o.a, o.b);
-    if (o.json) std::cout << comparisonJson(o, comparison).dump(2) << "\n";
+    if (o.json) std::cout << jsonText(comparisonJson(o, comparison)) << "\n";
     else printComparison(o, comparison);
 }
 

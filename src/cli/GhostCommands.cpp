@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "LensOptions.h"
+#include "Output.h"
 #include "flare/core/Error.h"
 #include "flare/ghosts/GhostAnalysis.h"
 #include "flare/ghosts/GhostTable.h"
@@ -75,7 +76,7 @@ void run(const GhostOptions& o) {
         if (o.all || !g.pruned) shown.push_back(&g);
 
     if (o.json) {
-        std::cout << ghostTableJson(lens, direction, options, report, o.all).dump(2) << "\n";
+        std::cout << jsonText(ghostTableJson(lens, direction, options, report, o.all)) << "\n";
         return;
     }
     if (o.csv) {

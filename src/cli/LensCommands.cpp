@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "flare/core/Error.h"
+#include "flare/core/OutputFiles.h"
 #include "flare/core/TextEncoding.h"
 #include "flare/ghosts/GhostRays.h"
 #include "flare/ghosts/Ghosts.h"
@@ -93,7 +94,7 @@ void printLibraryLenses(const std::vector<const LibraryLens*>& lenses, bool json
     if (json) {
         nlohmann::json list = nlohmann::json::array();
         for (const LibraryLens* lens : lenses) list.push_back(libraryLensJson(*lens));
-        std::cout << nlohmann::json{{"lenses", list}}.dump(2) << "\n";
+        std::cout << jsonText(nlohmann::json{{"lenses", list}}) << "\n";
         return;
     }
     for (const LibraryLens* lens : lenses) {
@@ -169,7 +170,7 @@ void addLensCommands(CLI::App& app) {
         const LensSystem system = LensSystem::build(
             prescription, infoOptions->state());
         const nlohmann::json j = lensInfoJson(prescription, system, *wavelength);
-        if (*json) std::cout << j.dump(2) << "\n";
+        if (*json) std::cout << jsonText(j) << "\n";
         else printLensInfo(j);
     });
 
@@ -224,7 +225,7 @@ void addLensCommands(CLI::App& app) {
             }
             all.push_back(std::move(j));
         }
-        if (*checkJsonFlag) std::cout << nlohmann::json{{"lenses", all}}.dump(2) << "\n";
+        if (*checkJsonFlag) std::cout << jsonText(nlohmann::json{{"lenses", all}}) << "\n";
         // Failed checks are findings about the input: the input-error exit code.
         if (failed) throw CLI::RuntimeError(kExitInputError);
     });
@@ -242,9 +243,11 @@ void addLensCommands(CLI::App& app) {
         std::string extension = out.size() >= 4 ? out.substr(out.size() - 4) : "";
         for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
         if (extension != ".zmx") throw InputError(out, 0, "the output must be a .zmx file");
-        checkWritable(out);
+        OutputFiles outputs;
+        outputs.add(out, "-o");
         const std::string text = writeZemax(loadLens(*exportLens));
-        writeFileAtomically(out, *utf16 ? encodeUtf16Le(text) : text);
+        outputs.write(out, *utf16 ? encodeUtf16Le(text) : text);
+        outputs.commit();
         std::printf("wrote %s\n", out.c_str());
     });
 
@@ -265,6 +268,8 @@ void addLensCommands(CLI::App& app) {
         ->delimiter(',')
         ->expected(2, 4);
     draw->callback([drawOptions, output, rays, field, ghost] {
+        OutputFiles outputs;
+        outputs.add(*output, "-o");
         const LensSystem system = buildLens(*drawOptions);
         LensDrawingOptions options;
         options.raysPerField = *rays;
@@ -306,7 +311,8 @@ void addLensCommands(CLI::App& app) {
             for (DrawnRay& r : traceGhostRays(system, reflections, options.fieldsDeg[0], *rays, options.wavelengthNm))
                 fans.push_back(std::move(r));
         }
-        writeFileAtomically(*output, drawLensSvg(system, fans, options));
+        outputs.write(*output, drawLensSvg(system, fans, options));
+        outputs.commit();
         std::printf("wrote %s (%zu rays)\n", output->c_str(), fans.size());
     });
 }

@@ -1,17 +1,15 @@
-// Writing output files all-or-nothing: the content goes to a temporary file beside the target,
-// which is renamed over it only when complete, so a failure never leaves a half-written file.
+// What the commands print: JSON on stdout. (Output files go through flare::OutputFiles: checked
+// before any work, written all or nothing; src/flare/core/OutputFiles.h.)
 #pragma once
 
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 namespace flare::cli {
 
-// Throws std::runtime_error (with the path and the reason) if the file cannot be written.
-void writeFileAtomically(const std::string& path, const std::string& content);
-
-// Checks, before any work, that an output file can be written where it is asked for: its folder
-// exists and is writable, and the path is not a folder. Else InputError(path, 0, why), which the
-// CLI reports with exit code 2 (a long render must not fail at its end for want of a folder).
-void checkWritable(const std::string& path);
+// `j` as text, indented by two spaces. Bytes that are not UTF-8 (a lens, light or grid name read
+// from a file can hold any) are replaced by U+FFFD instead of failing the command.
+std::string jsonText(const nlohmann::json& j);
 
 }  // namespace flare::cli

@@ -1,6 +1,5 @@
 #include "PreviewCommand.h"
 
-#include "Output.h"
 #include "StarburstReport.h"
 
 #include <algorithm>
@@ -9,6 +8,7 @@
 #include <memory>
 #include <string>
 
+#include "flare/core/OutputFiles.h"
 #include "flare/film/ImageIO.h"
 #include "flare/scene/Scene.h"
 #include "flare/scene/ScenePreview.h"
@@ -29,12 +29,15 @@ struct PreviewCommandOptions {
     double timeS = 0.0;
     long long seed = -1;  // −1: the scene's
     bool quiet = false;
+    bool pngGiven = false;  // --png given, even as ""
 };
 
 void run(const PreviewCommandOptions& o) {
     const auto start = std::chrono::steady_clock::now();
-    checkWritable(o.exr);
-    if (!o.png.empty()) checkWritable(o.png);
+    // Every output is checked before any work and written all or nothing.
+    OutputFiles outputs;
+    outputs.add(o.exr, "-o");
+    if (o.pngGiven) outputs.add(o.png, "--png");
     Scene scene = o.scene.empty() ? defaultScene() : loadScene(o.scene);
     if (o.noDiffraction) scene.render.diffraction = false;
     const LensSystem lens = buildSceneLens(scene);
@@ -75,8 +78,9 @@ void run(const PreviewCommandOptions& o) {
         {"scene", scene.sourceFile.empty() ? "embedded default scene" : scene.sourceFile},
         {"lens", lens.name()},
     };
-    writeExr(o.exr, layers, metadata, storage);
-    if (!o.png.empty()) writePng(o.png, layers.front(), pngExposure);
+    writeExr(outputs, o.exr, layers, metadata, storage);
+    if (o.pngGiven) writePng(outputs, o.png, layers.front(), pngExposure);
+    outputs.commit();
 
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (!o.quiet) {
@@ -117,7 +121,10 @@ void addPreviewCommand(CLI::App& app) {
         ->check(CLI::Range(0LL, (1LL << 62)));
     preview->add_flag("--higher", o->higher, "add the order-4 chains the final render guides (the `higher` layer)");
     preview->add_flag("--quiet", o->quiet, "no statistics on stderr");
-    preview->callback([o] { run(*o); });
+    preview->callback([o, preview] {
+        o->pngGiven = preview->count("--png") > 0;
+        run(*o);
+    });
 }
 
 }  // namespace flare::cli

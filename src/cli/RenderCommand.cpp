@@ -18,6 +18,7 @@
 #include "Output.h"
 #include "StarburstReport.h"
 #include "flare/core/Error.h"
+#include "flare/core/OutputFiles.h"
 #include "flare/core/Spectrum.h"
 #include "flare/film/ImageIO.h"
 #include "flare/render/Render.h"
@@ -51,6 +52,7 @@ struct RenderCommandOptions {
     bool noDiffraction = false;
     bool analogStray = false;
     bool quiet = false;
+    bool pngGiven = false, reportGiven = false, checkpointGiven = false;  // given, even as ""
 };
 
 std::atomic<bool> gInterrupted{false};
@@ -210,11 +212,15 @@ int run(const RenderCommandOptions& o) {
     if (o.threads > 0)
         threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, o.threads);
 
+    // Every output is checked before any work (a long render must not fail at its end) and they
+    // are written all or nothing, the final checkpoint with them.
+    OutputFiles outputs;
+    outputs.add(o.exr, "-o");
+    if (o.pngGiven) outputs.add(o.png, "--png");
+    if (o.reportGiven) outputs.add(o.report, "--report");
+    if (o.checkpointGiven) outputs.add(o.checkpoint, "--checkpoint");
     // Ctrl-C from here on ends the current pass and writes a checkpoint (before the first pass it
     // simply ends the render: there is nothing to save yet).
-    // Every output is checked before any work: a long render must not fail at its end.
-    for (const std::string* path : {&o.exr, &o.png, &o.report, &o.checkpoint})
-        if (!path->empty()) checkWritable(*path);
     gInterrupted.store(false);
     auto previous = std::signal(SIGINT, onInterrupt);
     Scene scene = o.scene.empty() ? defaultScene() : loadScene(o.scene);
@@ -249,8 +255,13 @@ int run(const RenderCommandOptions& o) {
     }
     Renderer renderer(lens, scene.lights, options);
     if (!o.quiet) std::fprintf(stderr, " %.1f s\n", elapsed());
-    const std::string checkpoint = o.checkpoint.empty() ? o.exr + ".checkpoint" : o.checkpoint;
-    if (!o.checkpoint.empty() && std::filesystem::exists(o.checkpoint)) {
+    // Without --checkpoint, one beside the image while the render runs (none when the image goes
+    // to a device or a pipe: no folder to put it in).
+    const std::string checkpoint = o.checkpointGiven ? o.checkpoint
+                                   : outputs.writesThrough(o.exr) ? std::string()
+                                   : o.exr + ".checkpoint";
+    std::error_code ec;
+    if (o.checkpointGiven && std::filesystem::is_regular_file(o.checkpoint, ec)) {
         renderer.loadCheckpoint(o.checkpoint);
         if (!o.quiet)
             std::fprintf(stderr, "resumed from %s: %lld photons already traced\n", o.checkpoint.c_str(),
@@ -284,7 +295,8 @@ int run(const RenderCommandOptions& o) {
             interrupted = true;
             break;
         }
-        if (std::chrono::duration<double>(std::chrono::steady_clock::now() - lastCheckpoint).count() >= o.checkpointIntervalS) {
+        if (!checkpoint.empty() &&
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - lastCheckpoint).count() >= o.checkpointIntervalS) {
             renderer.saveCheckpoint(checkpoint);
             lastCheckpoint = std::chrono::steady_clock::now();
         }
@@ -294,6 +306,10 @@ int run(const RenderCommandOptions& o) {
         printProgress(renderer, progressFraction(renderer, stop.passesWanted * perPass, o.timeS, o.targetError, elapsed()),
                       o.targetError, elapsed());
     if (!o.quiet) std::fprintf(stderr, "\n");
+    if (interrupted && checkpoint.empty()) {
+        std::fprintf(stderr, "interrupted: nothing written (-o is not a regular file; --checkpoint keeps the work)\n");
+        return 130;
+    }
     if (interrupted) {
         renderer.saveCheckpoint(checkpoint);
         std::fprintf(stderr, "interrupted: checkpoint written to %s (resume with --checkpoint %s)\n", checkpoint.c_str(),
@@ -321,18 +337,19 @@ int run(const RenderCommandOptions& o) {
         {"seed", std::to_string(options.seed)},
     };
     // PIZ: a render's layers are grainy, where it beats ZIP in size and time (ImageIO.h).
-    writeExr(o.exr, layers, metadata, {.storage = {}, .compression = ExrCompression::Piz});
-    if (!o.png.empty()) {
+    writeExr(outputs, o.exr, layers, metadata, {.storage = {}, .compression = ExrCompression::Piz});
+    if (o.pngGiven) {
         const ImageLayer& ghost = layers[1 + kLayerGhost];
-        writePng(o.png, layers.front(), 0.25 * autoExposure(ghost));
+        writePng(outputs, o.png, layers.front(), 0.25 * autoExposure(ghost));
     }
-    if (!o.report.empty()) {
+    if (o.reportGiven) {
         nlohmann::json report = reportJson(renderer, scene, lens, o);
         if (starburst) report["diffraction"] = starburstJson(*starburst);
-        writeFileAtomically(o.report, report.dump(2) + "\n");
+        outputs.write(o.report, jsonText(report) + "\n");
     }
-    if (o.checkpoint.empty() && std::filesystem::exists(checkpoint)) std::filesystem::remove(checkpoint);
-    else if (!o.checkpoint.empty()) renderer.saveCheckpoint(checkpoint);
+    if (o.checkpointGiven) renderer.saveCheckpoint(outputs, o.checkpoint);
+    outputs.commit();
+    if (!o.checkpointGiven && !checkpoint.empty()) std::filesystem::remove(checkpoint, ec);
 
     if (!o.quiet) {
         std::fprintf(stderr,
@@ -344,8 +361,8 @@ int run(const RenderCommandOptions& o) {
             if (l.skipped) std::fprintf(stderr, "  skipped light %s: %s\n", l.name.c_str(), l.skipReason.c_str());
         if (starburst) printStarburst(*starburst);
     }
-    std::printf("wrote %s%s%s%s%s\n", o.exr.c_str(), o.png.empty() ? "" : " and ", o.png.c_str(),
-                o.report.empty() ? "" : " and ", o.report.c_str());
+    std::printf("wrote %s%s%s%s%s\n", o.exr.c_str(), o.pngGiven ? " and " : "", o.png.c_str(),
+                o.reportGiven ? " and " : "", o.report.c_str());
     return 0;
 }
 
@@ -409,7 +426,10 @@ void addRenderCommand(CLI::App& app) {
                        "diffuse albedo of the barrel, element edges and iris blades, overriding the scene's finishes")
         ->check(CLI::Range(0.0, 1.0));
     render->add_flag("--quiet", o->quiet, "no progress or statistics on stderr");
-    render->callback([o] {
+    render->callback([o, render] {
+        o->pngGiven = render->count("--png") > 0;
+        o->reportGiven = render->count("--report") > 0;
+        o->checkpointGiven = render->count("--checkpoint") > 0;
         const int code = run(*o);
         if (code != 0) throw CLI::RuntimeError(code);
     });

@@ -1,4 +1,5 @@
 #include "VolumeCommand.h"
+#include "Output.h"
 
 #include <cstdio>
 #include <filesystem>
@@ -10,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "flare/core/OutputFiles.h"
 #include "flare/photons/VolumeGrid.h"
 #include "flare/photons/VolumeMake.h"
 
@@ -65,13 +67,16 @@ void runMake(VolumeMakeCommandOptions& o) {
     if (!kind) throw CLI::ValidationError("--kind", "unknown kind " + o.kind);  // (IsMember checks this first)
     o.make.kind = *kind;
     if (!o.countGiven) o.make.count = defaultCount(*kind);
+    OutputFiles outputs;
+    outputs.add(o.output, "-o");
     VolumeGrid grid;
     try {
         grid = makeVolume(o.make);
     } catch (const std::invalid_argument& e) {
         throw CLI::ValidationError("volume make", e.what());
     }
-    grid.save(o.output);
+    grid.save(outputs, o.output);
+    outputs.commit();
     std::error_code ec;
     const auto bytes = std::filesystem::file_size(o.output, ec);
     std::printf("wrote %s (%s bytes)\n", o.output.c_str(), ec ? "?" : std::to_string(bytes).c_str());
@@ -98,7 +103,7 @@ void runInfo(const VolumeInfoCommandOptions& o) {
             {"active_voxels", grid.activeVoxelCount()},
             {"grids", all},
         };
-        std::cout << j.dump(2) << "\n";
+        std::cout << jsonText(j) << "\n";
         return;
     }
     std::printf("%-15s%s\n", "file", o.file.c_str());

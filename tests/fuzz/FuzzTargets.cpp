@@ -22,18 +22,6 @@
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
 
-#if defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define FLARE_FUZZ_ASAN 1
-#endif
-#endif
-#if defined(__SANITIZE_ADDRESS__)
-#define FLARE_FUZZ_ASAN 1
-#endif
-#if defined(FLARE_FUZZ_ASAN)
-#include <sanitizer/lsan_interface.h>
-#endif
-
 #include "flare/core/Error.h"
 #include "flare/core/Random.h"
 #include "flare/film/Film.h"
@@ -208,26 +196,12 @@ void exrInput(std::string_view data) {
     }
 }
 
-namespace {
-// Hides the allocations made while it lives from LeakSanitizer (in ASan builds). OpenVDB 10 leaks
-// the node it was reading when a file ends inside a tree's topology (RootNode::readTopology, see
-// docs/robustness.md); libFuzzer would report that leak of the library's as a crash on nearly
-// every truncated input, drowning any other finding.
-struct LeakCheckDisabler {
-#if defined(FLARE_FUZZ_ASAN)
-    LeakCheckDisabler() { __lsan_disable(); }
-    ~LeakCheckDisabler() { __lsan_enable(); }
-#endif
-};
-}  // namespace
-
 void vdbInput(std::string_view data) {
     static const TempFile file(".vdb");
     const std::string& path = file.path();
     writeFile(path, data);
     VolumeGrid grid;
     try {
-        const LeakCheckDisabler disabler;
         grid = VolumeGrid::load(path);
     } catch (const InputError&) {
         return;

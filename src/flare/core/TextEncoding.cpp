@@ -99,9 +99,14 @@ std::string encodeUtf16Le(std::string_view utf8) {
     return out;
 }
 
-std::string decodeText(std::string_view bytes) {
-    if (bytes.size() >= 2 && bytes[0] == '\xFF' && bytes[1] == '\xFE') return fromUtf16(bytes.substr(2), true);
-    if (bytes.size() >= 2 && bytes[0] == '\xFE' && bytes[1] == '\xFF') return fromUtf16(bytes.substr(2), false);
+std::string decodeText(std::string_view bytes, const std::string& file) {
+    const bool little = bytes.size() >= 2 && bytes[0] == '\xFF' && bytes[1] == '\xFE';
+    const bool big = bytes.size() >= 2 && bytes[0] == '\xFE' && bytes[1] == '\xFF';
+    if ((little || big) && bytes.size() % 2 != 0)
+        throw InputError(file, 0, "UTF-16 text (it starts with a byte-order mark) of an odd number of bytes (" +
+                                      std::to_string(bytes.size()) + "): the file is cut short or not UTF-16");
+    if (little) return fromUtf16(bytes.substr(2), true);
+    if (big) return fromUtf16(bytes.substr(2), false);
     if (bytes.size() >= 3 && bytes.substr(0, 3) == "\xEF\xBB\xBF") return std::string(bytes.substr(3));
     return std::string(bytes);
 }

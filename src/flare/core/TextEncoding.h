@@ -11,7 +11,9 @@ namespace flare {
 
 // The bytes as UTF-8: UTF-16 LE or BE with a BOM is transcoded (an unpaired surrogate becomes
 // U+FFFD), a UTF-8 BOM is dropped, anything else is returned as it is. Line ends are left alone.
-std::string decodeText(std::string_view bytes);
+// UTF-16 with an odd number of bytes (a file cut short, or not UTF-16 after all) raises
+// InputError(file, 0, ...).
+std::string decodeText(std::string_view bytes, const std::string& file = "");
 
 // The reverse for writers: UTF-8 text as UTF-16 little-endian with a byte-order mark, as Zemax
 // writes its own files (a malformed UTF-8 sequence becomes U+FFFD).

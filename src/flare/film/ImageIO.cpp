@@ -29,6 +29,7 @@
 #include <png.h>
 
 #include "flare/core/Error.h"
+#include "flare/core/OutputFiles.h"
 #include "flare/core/Spectrum.h"
 
 namespace flare {
@@ -53,22 +54,6 @@ void checkLayer(const ImageLayer& layer) {
         if (!std::isfinite(layer.rgb[i]))
             throw std::logic_error("image layer \"" + layer.name + "\" has a non-finite value at pixel " +
                                    std::to_string(i / 3) + " (" + std::to_string(layer.rgb[i]) + ")");
-}
-
-// Moves the finished partial file over `path`; on failure removes it and throws.
-void commit(const std::string& partial, const std::string& path) {
-    std::error_code ec;
-    std::filesystem::rename(partial, path, ec);
-    if (ec) {
-        std::filesystem::remove(partial, ec);
-        throw std::runtime_error("cannot write " + path + ": renaming the finished file failed (" +
-                                 ec.message() + ")");
-    }
-}
-
-void discard(const std::string& partial) {
-    std::error_code ec;
-    std::filesystem::remove(partial, ec);  // best effort: the error being reported matters more
 }
 
 double luminance(const glm::dvec3& rgb) { return linearSrgbToXyz(rgb).y; }
@@ -107,7 +92,7 @@ bool fitsHalf(const ImageLayer& layer) {
     return true;
 }
 
-void writeExr(const std::string& path, const std::vector<ImageLayer>& layers,
+void writeExr(OutputFiles& outputs, const std::string& path, const std::vector<ImageLayer>& layers,
               const std::vector<std::pair<std::string, std::string>>& metadata, const ExrWriteOptions& options) {
     if (layers.empty()) throw std::invalid_argument("writeExr: no image layers for " + path);
     std::set<std::string> names;
@@ -179,14 +164,14 @@ void writeExr(const std::string& path, const std::vector<ImageLayer>& layers,
     // of scanlines in parallel once given threads, with the same bytes as one thread.
     if (Imf::globalThreadCount() == 0)
         Imf::setGlobalThreadCount(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
-    const std::string partial = path + ".partial";
+    const std::string& temporary = outputs.file(path);
     try {
         // Our own stream, so that errors while closing (OpenEXR writes the line offset table in
         // its destructor and swallows failures there) are still seen.
-        std::ofstream stream(partial, std::ios::binary | std::ios::trunc);
+        std::ofstream stream(temporary, std::ios::binary | std::ios::trunc);
         if (!stream) throw std::runtime_error(std::strerror(errno));
         {
-            Imf::StdOFStream exrStream(stream, partial.c_str());
+            Imf::StdOFStream exrStream(stream, temporary.c_str());
             Imf::OutputFile file(exrStream, header);
             file.setFrameBuffer(frameBuffer);
             file.writePixels(height);
@@ -194,10 +179,16 @@ void writeExr(const std::string& path, const std::vector<ImageLayer>& layers,
         stream.close();
         if (!stream) throw std::runtime_error("error while finishing the file");
     } catch (const std::exception& e) {
-        discard(partial);
         throw std::runtime_error("cannot write " + path + ": " + e.what());
     }
-    commit(partial, path);
+}
+
+void writeExr(const std::string& path, const std::vector<ImageLayer>& layers,
+              const std::vector<std::pair<std::string, std::string>>& metadata, const ExrWriteOptions& options) {
+    OutputFiles outputs;
+    outputs.add(path);
+    writeExr(outputs, path, layers, metadata, options);
+    outputs.commit();
 }
 
 std::vector<ImageLayer> readExr(const std::string& path) {
@@ -273,7 +264,7 @@ glm::dvec3 displayEncode(const glm::dvec3& linearRgb, double exposure) {
             srgbOetf(std::clamp(rgb.b, 0.0, 1.0))};
 }
 
-void writePng(const std::string& path, const ImageLayer& image, double exposure) {
+void writePng(OutputFiles& outputs, const std::string& path, const ImageLayer& image, double exposure) {
     checkLayer(image);
     if (!std::isfinite(exposure) || exposure < 0.0)
         throw std::invalid_argument("writePng: exposure must be finite and non-negative");
@@ -289,15 +280,19 @@ void writePng(const std::string& path, const ImageLayer& image, double exposure)
     png.width = static_cast<png_uint_32>(image.width);
     png.height = static_cast<png_uint_32>(image.height);
     png.format = PNG_FORMAT_RGB;
-    const std::string partial = path + ".partial";
-    if (!png_image_write_to_file(&png, partial.c_str(), 0, pixels.data(), 0, nullptr)) {
+    if (!png_image_write_to_file(&png, outputs.file(path).c_str(), 0, pixels.data(), 0, nullptr)) {
         const std::string message = png.message;
         png_image_free(&png);
-        discard(partial);
         throw std::runtime_error("cannot write " + path + ": " + message);
     }
     png_image_free(&png);
-    commit(partial, path);
+}
+
+void writePng(const std::string& path, const ImageLayer& image, double exposure) {
+    OutputFiles outputs;
+    outputs.add(path);
+    writePng(outputs, path, image, exposure);
+    outputs.commit();
 }
 
 // Flare images are mostly black with a core 10⁴–10⁶ times brighter than the ghosts, so neither the

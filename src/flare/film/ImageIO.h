@@ -12,6 +12,8 @@
 
 #include <glm/vec3.hpp>
 
+#include "flare/core/OutputFiles.h"
+
 namespace flare {
 
 // One RGB image: interleaved linear Rec.709 RGB (sRGB primaries, D65 white), row-major, first row
@@ -58,8 +60,14 @@ struct ExrWriteOptions {
 // metadata pair as a string attribute. Throws std::logic_error for malformed input (mismatched
 // sizes, duplicate layer names, a metadata key that is a standard attribute, any NaN or infinity,
 // a value beyond half's range in a Half layer: programming errors) and std::runtime_error naming
-// `path` when the file cannot be written; nothing is left behind.
+// `path` when the file cannot be written (InputError from OutputFiles::add when its folder is not
+// writable); nothing is left behind. A symbolic link is followed, a device or FIFO written
+// through (OutputFiles).
 void writeExr(const std::string& path, const std::vector<ImageLayer>& layers,
+              const std::vector<std::pair<std::string, std::string>>& metadata,
+              const ExrWriteOptions& options = {});
+// The same into `outputs`' temporary for `path` (added to them), moved into place by their commit().
+void writeExr(OutputFiles& outputs, const std::string& path, const std::vector<ImageLayer>& layers,
               const std::vector<std::pair<std::string, std::string>>& metadata,
               const ExrWriteOptions& options = {});
 
@@ -81,6 +89,7 @@ glm::dvec3 displayEncode(const glm::dvec3& linearRgb, double exposure);
 
 // 8-bit sRGB PNG of displayEncode(pixel, exposure); all-or-nothing like writeExr, same errors.
 void writePng(const std::string& path, const ImageLayer& image, double exposure);
+void writePng(OutputFiles& outputs, const std::string& path, const ImageLayer& image, double exposure);
 
 // An exposure for the PNG preview that shows the ghosts. See ImageIO.cpp for the choice.
 double autoExposure(const ImageLayer& image);

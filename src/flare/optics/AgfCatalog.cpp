@@ -175,7 +175,7 @@ AgfCatalog AgfCatalog::parse(std::string_view text, const std::string& fileName,
 }
 
 AgfCatalog AgfCatalog::load(const std::string& path) {
-    const std::string text = decodeText(readFileBytes(path, "glass catalogue"));
+    const std::string text = decodeText(readFileBytes(path, "glass catalogue"), path);
     return parse(text, path, asciiUpper(fs::path(path).stem().string()));
 }
 

@@ -278,7 +278,7 @@ Medium ZemaxReader::medium(const ZemaxSurface& s, std::string* text) const {
 }
 
 LensPrescription ZemaxReader::read(std::string_view bytes) {
-    const std::string text = decodeText(bytes);
+    const std::string text = decodeText(bytes, file_);
     int lineNumber = 0, lastLine = 0;
     bool inConfigurations = false;  // MNUM seen: operand lines follow
     size_t start = 0;

@@ -3,13 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <limits>
 #include <mutex>
 #include <optional>
+#include <sstream>
 #include <stdexcept>
-#include <system_error>
 #include <utility>
 #include <vector>
 
@@ -21,6 +19,8 @@
 #include <openvdb/tree/ValueAccessor.h>
 
 #include "flare/core/Error.h"
+#include "flare/core/OutputFiles.h"
+#include "flare/photons/VdbFile.h"
 
 namespace flare {
 
@@ -194,75 +194,66 @@ VolumeGrid::VolumeGrid(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)
 
 std::vector<std::pair<std::string, std::string>> VolumeGrid::listGrids(const std::string& path) {
     initializeOpenVdb();
-    std::error_code ec;
-    if (!std::filesystem::exists(path, ec)) throw InputError(path, 0, "no such file");
-    if (std::filesystem::is_directory(path, ec)) throw InputError(path, 0, "is a directory, not a .vdb file");
     std::vector<std::pair<std::string, std::string>> grids;
-    try {
-        openvdb::io::File file(path);
-        try {
-            file.open(false);
-        } catch (const std::exception& e) {
-            throw InputError(path, 0, std::string("not an OpenVDB file (") + e.what() + ")");
-        }
-        const openvdb::GridPtrVecPtr metadata = file.readAllGridMetadata();
-        for (const openvdb::GridBase::Ptr& g : *metadata) grids.emplace_back(g->getName(), g->valueType());
-        file.close();
-    } catch (const InputError&) {
-        throw;
-    } catch (const std::exception& e) {
-        throw InputError(path, 0, std::string("cannot read the OpenVDB file: ") + e.what());
-    }
+    const VdbFile file(path);
+    for (const VdbFile::Grid& g : file.grids()) grids.emplace_back(g.name, g.valueType);
     return grids;
 }
 
 VolumeGrid VolumeGrid::load(const std::string& path, const std::string& gridName) {
     initializeOpenVdb();
-    const std::vector<std::pair<std::string, std::string>> grids = listGrids(path);
+    // The file is read and checked by VdbFile (header, descriptors, then the chosen grid node by
+    // node) before OpenVDB sees any of it: OpenVDB's reader trusts the sizes and counts a file
+    // declares (VdbFile.h).
+    const VdbFile file(path);
+    const std::vector<VdbFile::Grid>& grids = file.grids();
     const std::string floatType = openvdb::typeNameAsString<float>();  // "float"
+    const auto listing = [&] {
+        std::vector<std::pair<std::string, std::string>> list;
+        for (const VdbFile::Grid& g : grids) list.emplace_back(g.name, g.valueType);
+        return gridList(list);
+    };
 
-    std::string chosen;
+    const VdbFile::Grid* chosen = nullptr;
     if (gridName.empty()) {
         // "density" (the usual name of a fog volume) if the file has such a float grid, else the
-        // first float grid in OpenVDB's listing order (by name; a .vdb keeps no other order).
+        // first float grid in name order (as OpenVDB lists a file's grids; a .vdb keeps no other order).
         auto it = std::find_if(grids.begin(), grids.end(),
-                               [&](const auto& g) { return g.first == "density" && g.second == floatType; });
+                               [&](const auto& g) { return g.name == "density" && g.valueType == floatType; });
         if (it == grids.end())
-            it = std::find_if(grids.begin(), grids.end(), [&](const auto& g) { return g.second == floatType; });
-        if (it == grids.end())
-            throw InputError(path, 0, "no float grid in the file (grids: " + gridList(grids) + ")");
-        chosen = it->first;
+            it = std::find_if(grids.begin(), grids.end(), [&](const auto& g) { return g.valueType == floatType; });
+        if (it == grids.end()) throw InputError(path, 0, "no float grid in the file (grids: " + listing() + ")");
+        chosen = &*it;
     } else {
-        const auto it = std::find_if(grids.begin(), grids.end(), [&](const auto& g) { return g.first == gridName; });
+        // The first float grid of that name, else the first of that name (to say what it is).
+        auto it = std::find_if(grids.begin(), grids.end(),
+                               [&](const auto& g) { return g.name == gridName && g.valueType == floatType; });
         if (it == grids.end())
-            throw InputError(path, 0, "no grid named \"" + gridName + "\" (grids: " + gridList(grids) + ")");
-        if (it->second != floatType)
-            throw InputError(path, 0, "grid \"" + gridName + "\" is a " + it->second + " grid; a density must be a " +
+            it = std::find_if(grids.begin(), grids.end(), [&](const auto& g) { return g.name == gridName; });
+        if (it == grids.end())
+            throw InputError(path, 0, "no grid named \"" + gridName + "\" (grids: " + listing() + ")");
+        if (it->valueType != floatType)
+            throw InputError(path, 0, "grid \"" + gridName + "\" is a " + it->valueType + " grid; a density must be a " +
                                           floatType + " grid");
-        chosen = gridName;
+        chosen = &*it;
     }
 
+    const std::string checked = file.checkedFloatGridStream(*chosen);
     auto impl = std::make_shared<Impl>();
     try {
-        // Read through a stream that throws on a short read: OpenVDB's tree readers do not check
-        // the stream, so a file that declares more tiles or nodes than it holds would have them
-        // loop on a failed stream (found by fuzzing: billions of declared root tiles, a hang).
-        std::ifstream in(path, std::ios::binary);
+        // The checked stream holds the one grid, uncompressed; the stream still throws on a short
+        // read, as a second line of defence.
+        std::istringstream in(checked, std::ios::binary);
         in.exceptions(std::ios::failbit | std::ios::badbit);
         openvdb::io::Stream stream(in, /*delayLoad=*/false);
-        openvdb::GridBase::Ptr base;
-        for (const openvdb::GridBase::Ptr& g : *stream.getGrids())
-            if (g && !base && g->getName() == chosen) base = g;  // the first of that name, as readGrid
-        openvdb::FloatGrid::Ptr grid = openvdb::gridPtrCast<openvdb::FloatGrid>(base);
-        if (!grid)
-            throw InputError(path, 0, "grid \"" + chosen + "\" has the tree type " + (base ? base->type() : std::string("?")) +
-                                          "; flare reads float grids of the standard type " +
-                                          openvdb::FloatGrid::gridType());
+        const openvdb::GridPtrVecPtr read = stream.getGrids();
+        openvdb::FloatGrid::Ptr grid =
+            read && read->size() == 1 ? openvdb::gridPtrCast<openvdb::FloatGrid>(read->front()) : nullptr;
+        if (!grid) throw std::runtime_error("OpenVDB did not read it as one float grid");
         impl->grid = grid;
-    } catch (const InputError&) {
-        throw;
     } catch (const std::exception& e) {
-        throw InputError(path, 0, "cannot read grid \"" + chosen + "\": " + e.what());
+        // Not expected after the checks: still the file's fault, not the program's.
+        throw InputError(path, 0, "cannot read grid \"" + chosen->name + "\": " + e.what());
     }
     impl->name = impl->grid->getName();
     impl->sourceFile = path;
@@ -347,24 +338,24 @@ void VolumeGrid::forEachActiveBox(
     }
 }
 
-void VolumeGrid::save(const std::string& path) const {
+void VolumeGrid::save(OutputFiles& outputs, const std::string& path) const {
     if (!impl_) throw std::logic_error("VolumeGrid::save: the grid is empty");
     initializeOpenVdb();
-    const std::string temporary = path + ".partial";
     try {
-        openvdb::io::File file(temporary);
-        file.write(openvdb::GridCPtrVec{impl_->grid});
-        file.close();
+        openvdb::io::File out(outputs.file(path));
+        out.write(openvdb::GridCPtrVec{impl_->grid});
+        out.close();
     } catch (const std::exception& e) {
-        std::remove(temporary.c_str());
         throw std::runtime_error("cannot write " + path + ": " + e.what());
     }
-    std::error_code ec;
-    std::filesystem::rename(temporary, path, ec);
-    if (ec) {
-        std::remove(temporary.c_str());
-        throw std::runtime_error("cannot write " + path + ": " + ec.message());
-    }
+}
+
+void VolumeGrid::save(const std::string& path) const {
+    if (!impl_) throw std::logic_error("VolumeGrid::save: the grid is empty");
+    OutputFiles outputs;
+    outputs.add(path);
+    save(outputs, path);
+    outputs.commit();
 }
 
 // ---- Sampler ------------------------------------------------------------------------------------

@@ -18,6 +18,8 @@
 
 #include <glm/vec3.hpp>
 
+#include "flare/core/OutputFiles.h"
+
 namespace flare {
 
 class VolumeGrid {
@@ -25,8 +27,9 @@ public:
     // Loads the float grid named `gridName` ("" = the float grid named "density" if there is one,
     // else the first float grid in name order: OpenVDB lists a file's grids by name). Any problem
     // (missing or unreadable file, not a VDB file, no such grid, a grid that is not a float grid,
-    // a non-linear (frustum) transform, negative or non-finite active values, no active voxels)
-    // throws InputError(path, 0, problem).
+    // a non-linear (frustum) transform, negative or non-finite active values, no active voxels,
+    // a level set, a corrupt or hostile file: VdbFile checks every byte before OpenVDB reads the
+    // grid) throws InputError(path, 0, problem).
     static VolumeGrid load(const std::string& path, const std::string& gridName = "");
 
     // (name, value type) of every grid in a .vdb file, in name order (the type as OpenVDB names
@@ -92,9 +95,12 @@ public:
     Sampler sampler() const;
 
     // Writes a .vdb file holding one float grid named name() (with its description metadata),
-    // atomically: to path + ".partial", then renamed over path. Throws std::runtime_error (path and
-    // reason) if the file cannot be written, std::logic_error for an empty grid.
+    // all or nothing (OutputFiles: a temporary beside the target, renamed over it). Throws
+    // std::runtime_error (path and reason) if the file cannot be written, std::logic_error for an
+    // empty grid. The second form writes into `outputs`' temporary for `path`, moved into place by
+    // their commit().
     void save(const std::string& path) const;
+    void save(OutputFiles& outputs, const std::string& path) const;
 
     // Builds a grid voxel by voxel (makeVolume uses it). Voxel (i, j, k) is the box
     // [cornerMm + (i, j, k)·voxelMm, cornerMm + (i + 1, j + 1, k + 1)·voxelMm]; set() activates it.

@@ -50,6 +50,7 @@
 #include <string>
 #include <vector>
 
+#include "flare/core/OutputFiles.h"
 #include "flare/core/Replicates.h"
 #include "flare/film/Film.h"
 #include "flare/ghosts/GhostAnalysis.h"
@@ -268,8 +269,10 @@ public:
 
     // Checkpoints (binary): the film, the tallies, the statistics and the number of passes done.
     // Loading checks that the checkpoint was written by a render with the same scene, lens and
-    // options; else InputError(path, 0, why).
+    // options; else InputError(path, 0, why). Saving is all or nothing (OutputFiles); the second
+    // form writes into `outputs`' temporary for `path`, moved into place by their commit().
     void saveCheckpoint(const std::string& path) const;
+    void saveCheckpoint(OutputFiles& outputs, const std::string& path) const;
     void loadCheckpoint(const std::string& path);
 
 private:

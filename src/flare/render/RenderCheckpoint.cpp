@@ -4,6 +4,8 @@
 #include "flare/render/Render.h"
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -51,28 +53,27 @@ std::uint64_t Renderer::fingerprint() const {
     return hash;
 }
 
-void Renderer::saveCheckpoint(const std::string& path) const {
-    const std::string partial = path + ".partial";
-    {
-        std::ofstream out(partial, std::ios::binary | std::ios::trunc);
-        if (!out) throw std::runtime_error("cannot write checkpoint " + partial);
-        const std::uint64_t header[] = {kCheckpointMagic, fingerprint(), static_cast<std::uint64_t>(batchesDone_)};
-        out.write(reinterpret_cast<const char*>(header), sizeof header);
-        out.write(reinterpret_cast<const char*>(&statistics_), sizeof statistics_);
-        for (const auto* list : {&tallies_, &layerTallies_, &scatterSourceTallies_})
-            for (const PathTally& t : *list) {
-                const double sums[] = {t.sumMeans, t.sumSquaredMeans};
-                out.write(reinterpret_cast<const char*>(sums), sizeof sums);
-                out.write(reinterpret_cast<const char*>(t.replicateSums.data()), sizeof t.replicateSums);
-            }
-        film_.save(out);
-        out.flush();
-        if (!out) {
-            std::filesystem::remove(partial);
-            throw std::runtime_error("cannot write checkpoint " + partial);
+void Renderer::saveCheckpoint(OutputFiles& outputs, const std::string& path) const {
+    std::ofstream out(outputs.file(path), std::ios::binary | std::ios::trunc);
+    const std::uint64_t header[] = {kCheckpointMagic, fingerprint(), static_cast<std::uint64_t>(batchesDone_)};
+    out.write(reinterpret_cast<const char*>(header), sizeof header);
+    out.write(reinterpret_cast<const char*>(&statistics_), sizeof statistics_);
+    for (const auto* list : {&tallies_, &layerTallies_, &scatterSourceTallies_})
+        for (const PathTally& t : *list) {
+            const double sums[] = {t.sumMeans, t.sumSquaredMeans};
+            out.write(reinterpret_cast<const char*>(sums), sizeof sums);
+            out.write(reinterpret_cast<const char*>(t.replicateSums.data()), sizeof t.replicateSums);
         }
-    }
-    std::filesystem::rename(partial, path);
+    film_.save(out);
+    out.close();
+    if (!out) throw std::runtime_error("cannot write checkpoint " + path + ": " + std::strerror(errno));
+}
+
+void Renderer::saveCheckpoint(const std::string& path) const {
+    OutputFiles outputs;
+    outputs.add(path, "checkpoint");
+    saveCheckpoint(outputs, path);
+    outputs.commit();
 }
 
 void Renderer::loadCheckpoint(const std::string& path) {

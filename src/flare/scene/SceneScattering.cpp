@@ -27,11 +27,17 @@ FinishSpec parseFinish(const Checker& c, const Node& node, const std::string& pa
     return f;
 }
 
-// A data file named in the scene, relative to the scene's folder (kept as given if that does not
-// exist, so that the error names what the user wrote).
-std::string resolveDataFile(const std::string& file, const std::string& baseDir) {
+// A data file named in the scene (at `line`, key `path`), relative to the scene's folder (kept as
+// given if that does not exist, so that the error names what the user wrote). A name the system
+// cannot look up (too long, through a file, no permission) is an error at the scene's line.
+std::string resolveDataFile(const Checker& c, int line, const std::string& path, const std::string& file,
+                            const std::string& baseDir) {
     const std::filesystem::path resolved = std::filesystem::path(baseDir) / file;
-    return std::filesystem::exists(resolved) || baseDir.empty() ? resolved.string() : file;
+    std::error_code ec;
+    const bool exists = std::filesystem::exists(resolved, ec);
+    if (ec && ec != std::errc::no_such_file_or_directory)
+        c.fail(line, path, "cannot use the file '" + resolved.string() + "': " + ec.message());
+    return exists || baseDir.empty() ? resolved.string() : file;
 }
 
 // The optional "mask", "mask_size_mm" (a width, or [width, height]) and "mask_centre_mm" keys of
@@ -51,7 +57,7 @@ MaskSpec parseMask(const Checker& c, const Node& item, const std::string& path, 
     mask.line = file->value.line;
     const std::string& name = c.string(file->value, mask.keyPath);
     if (name.empty()) c.fail(mask.line, mask.keyPath, "must name a PNG or EXR image file");
-    mask.file = resolveDataFile(name, baseDir);
+    mask.file = resolveDataFile(c, mask.line, mask.keyPath, name, baseDir);
     if (size) {
         const std::string sizePath = child(path, "mask_size_mm");
         if (size->value.kind == Node::Kind::Array) {
@@ -137,7 +143,7 @@ void parseScattering(const Checker& c, const Node& node, const std::string& base
             if (const Member* m = Checker::find(item, "g")) b.g = c.numberIn(m->value, child(path, "g"), -0.99, 0.99, "");
             if (const Member* m = Checker::find(item, "rayleigh")) b.rayleigh = c.boolean(m->value, child(path, "rayleigh"));
             if (const Member* m = Checker::find(item, "grid")) {
-                b.grid = resolveDataFile(c.string(m->value, child(path, "grid")), baseDir);
+                b.grid = resolveDataFile(c, m->value.line, child(path, "grid"), c.string(m->value, child(path, "grid")), baseDir);
             }
             if (const Member* m = Checker::find(item, "grid_name")) b.gridName = c.string(m->value, child(path, "grid_name"));
             s.bulk.push_back(b);

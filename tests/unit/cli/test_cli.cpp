@@ -140,5 +140,19 @@ TEST(Cli, MissingFileAndBadArgumentsExitWithCodeTwo) {
     EXPECT_EQ(run("no-such-command").exitCode, 2);
 }
 
+// A data file named in a scene whose name is too long for the system: the scene's file and line,
+// exit code 2 (it was an uncaught filesystem_error: "File name too long", exit code 1).
+TEST(Cli, OverlongDataFileNameInASceneIsAFileLineError) {
+    const std::string scene = (test::processTempDir("cli") / "long.json").string();
+    std::ofstream(scene) << R"({"lens": "double-gauss-50mm",
+  "lights": [{"type": "directional", "field_deg": [0, 5]}],
+  "scattering": {"bulk": [{"element": 1, "scattering_per_mm": 0.01,
+    "grid": ")" << std::string(300, 'g') << R"(.vdb"}]}})";
+    const CliRun r = test::runCli("preview " + scene + " -o " + (test::processTempDir("cli") / "x.exr").string());
+    EXPECT_EQ(r.exitCode, 2) << r.out;
+    EXPECT_NE(r.out.find(scene + ":4: scattering.bulk[0].grid"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("File name too long"), std::string::npos) << r.out;
+}
+
 }  // namespace
 }  // namespace flare

@@ -464,6 +464,26 @@ TEST(ZemaxFile, CliReadsAndWritesZmxFiles) {
     EXPECT_EQ(run.exitCode, kExitInputError);
 }
 
+// A UTF-16 file with an odd number of bytes (cut short, or not UTF-16 after all) loaded silently,
+// its last byte dropped; now it is refused, naming the file.
+TEST(ZemaxFile, Utf16WithAnOddNumberOfBytesIsRefused) {
+    const std::string whole = encodeUtf16Le(doublet());
+    EXPECT_NO_THROW(parseZemaxText(whole, "whole.zmx"));
+    for (const std::string& odd : {whole + "x", whole.substr(0, whole.size() - 1)}) {
+        try {
+            parseZemaxText(odd, "odd.zmx");
+            ADD_FAILURE() << "no InputError";
+        } catch (const InputError& e) {
+            EXPECT_EQ(e.file(), "odd.zmx");
+            EXPECT_NE(e.problem().find("odd number of bytes"), std::string::npos) << e.problem();
+        }
+    }
+    // Big-endian too.
+    std::string big = "\xFE\xFF";
+    for (const char c : std::string("VERS 1\n")) big += std::string{'\0', c};
+    EXPECT_THROW(parseZemaxText(big + "\n", "big.zmx"), InputError);
+}
+
 // Random edits of a valid zoom file (lines dropped, repeated or swapped, tokens replaced by
 // tokens seen elsewhere or by odd numbers): the reader returns a lens that builds at every position
 // or raises InputError, nothing else.
