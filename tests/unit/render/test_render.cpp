@@ -50,6 +50,23 @@ Scene doubletScene(double angularDiameterDeg = 0.53) {
     return parseSceneText(text, "doublet.json", "");
 }
 
+// The doublet's sun with a point light and a disk light beside it: every kind of light's beams.
+Scene doubletSceneWithEveryLight() {
+    Scene scene = doubletScene();
+    LightSpec point = scene.lights.front();
+    point.name = "lamp";
+    point.type = LightSpec::Type::Point;
+    point.positionMm = {30.0, 20.0, -600.0};
+    LightSpec disk = point;
+    disk.name = "headlight";
+    disk.type = LightSpec::Type::Disk;
+    disk.positionMm = {-50.0, 10.0, -900.0};
+    disk.radiusMm = 20.0;
+    scene.lights.push_back(point);
+    scene.lights.push_back(disk);
+    return scene;
+}
+
 RenderOptions optionsFor(const Scene& scene, const LensSystem& lens, RenderOptions::Mode mode) {
     RenderOptions o;
     o.mode = mode;
@@ -578,7 +595,7 @@ void expectSameRender(const Renderer& a, const Renderer& b) {
 }
 
 TEST(Render, SameSeedSameImageForAnyThreadCount) {
-    const Scene scene = doubletScene();
+    const Scene scene = doubletSceneWithEveryLight();
     const LensSystem lens = buildSceneLens(scene);
     RenderOptions o = optionsFor(scene, lens, RenderOptions::Mode::Guided);
     o.perGhostLayers = true;
@@ -654,7 +671,7 @@ TEST(Render, GuidedPhotonsInPacketsEqualOneAtATime) {
 }
 
 TEST(Render, ResumingFromACheckpointGivesTheUninterruptedImage) {
-    const Scene scene = doubletScene();
+    const Scene scene = doubletSceneWithEveryLight();
     const LensSystem lens = buildSceneLens(scene);
     const RenderOptions o = optionsFor(scene, lens, RenderOptions::Mode::Guided);
     // Resumed after two passes, then two more: both replicates' sequences must go on where they
@@ -675,6 +692,7 @@ TEST(Render, ResumingFromACheckpointGivesTheUninterruptedImage) {
     resumed.runPass();
     resumed.runPass();
     ASSERT_GT(straight.statistics().beams, 0);
+    for (const LightPlan& light : straight.lights()) EXPECT_GT(light.beamGhosts, 0) << light.name;
     expectSameRender(straight, resumed);
 
     // A checkpoint of another render is refused with the file named.
