@@ -19,7 +19,8 @@ build/src/flare render --time 60 -o out/default-render.exr --png out/default-ren
 build/src/flare lens draw double-gauss-50mm -o out/double-gauss-50mm.svg --rays 11
 echo
 echo "output in $(pwd)/out:"
-echo "  default.exr          preview with the sun's diffraction starburst, linear Rec.709 (add --layers for"
+echo "  default.exr          preview (the final render's first two passes of beams, no photons) with the
+                       sun's diffraction starburst, linear Rec.709 (add --layers for"
 echo "                       direct, starburst, ghost and one layer per ghost)"
 echo "  default.png          tone-mapped preview"
 echo "  default-render.exr   final render (ghosts by beams, the rest by photons; to 2 % estimated error"
