@@ -3,7 +3,10 @@
 #pragma once
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <initializer_list>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -26,6 +29,15 @@ surfaces
   -60.0    2.5    n=1.72     11
   400.0    auto   air        11
 )";
+
+// kUncoatedDoublet written as doublet.lens into this process's scratch folder `folder`; its path.
+inline std::string writeUncoatedDoublet(const std::string& folder) {
+    const auto dir = processTempDir(folder);
+    std::filesystem::create_directories(dir);
+    const std::string lens = (dir / "doublet.lens").string();
+    std::ofstream(lens) << kUncoatedDoublet;
+    return lens;
+}
 
 // The film the scene's sensor gives and the scene's scattering, in the given mode.
 inline RenderOptions sceneRenderOptions(const Scene& scene, const LensSystem& lens, RenderOptions::Mode mode,

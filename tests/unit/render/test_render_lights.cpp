@@ -29,10 +29,7 @@ namespace flare {
 namespace {
 
 Scene doubletScene(const std::string& lightJson) {
-    const auto dir = test::processTempDir("flare_render_lights_test");
-    std::filesystem::create_directories(dir);
-    const std::string lens = (dir / "doublet.lens").string();
-    std::ofstream(lens) << test::kUncoatedDoublet;
+    const std::string lens = test::writeUncoatedDoublet("flare_render_lights_test");
     const std::string text = R"({
   "lens": ")" + lens + R"(",
   "sensor": { "resolution": [150, 100] },

@@ -19,10 +19,7 @@ namespace flare {
 namespace {
 
 Scene doubletSunScene(double angularDiameterDeg) {
-    const auto dir = test::processTempDir("flare_scene_preview_test");
-    std::filesystem::create_directories(dir);
-    const std::string lens = (dir / "doublet.lens").string();
-    std::ofstream(lens) << test::kUncoatedDoublet;
+    const std::string lens = test::writeUncoatedDoublet("flare_scene_preview_test");
     const std::string text = R"({
   "lens": ")" + lens + R"(",
   "sensor": { "resolution": [240, 160] },
