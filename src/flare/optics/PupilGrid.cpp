@@ -96,13 +96,10 @@ PupilGrid PupilGrid::forPoint(const LensSystem& lens, const glm::dvec3& sourceMm
     const double sinTheta = std::sqrt(std::max(0.0, 1.0 - grid.direction.z * grid.direction.z));
     const double reach = reachMm(first, sag, grid.direction);
     grid.halfSizeMm = 1.01 * (first.semiApertureMm + sag.maxMm * sinTheta) * distanceMm / (distanceMm - reach) + 1e-3;
-    // The most inclined ray of the window leans by up to α from the central one: start far enough
-    // back that it too begins in front of the lens's first point.
-    const double alpha = std::atan(std::sqrt(2.0) * grid.halfSizeMm / distanceMm);
-    const double cosSteepest = std::cos(std::min(std::acos(std::clamp(grid.direction.z, -1.0, 1.0)) + alpha, 0.5 * std::numbers::pi));
-    const double zStart = objectSpaceStartZMm(lens);
-    grid.backOffMm =
-        (first.vertexZMm - zStart + std::sqrt(2.0) * grid.halfSizeMm * sinTheta) / std::max(cosSteepest, 1e-3) + 1.0;
+    // Each ray starts on its own way in front of the lens's first point (rayFrom), not a fixed
+    // distance back: a disk light's other points send steeper rays than its centre's.
+    grid.backOffMm = 0.0;
+    grid.startZMm = objectSpaceStartZMm(lens);
     return grid;
 }
 

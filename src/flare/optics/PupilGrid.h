@@ -26,12 +26,13 @@ struct PupilGrid {
     glm::dvec3 e1{1.0, 0.0, 0.0};
     glm::dvec3 e2{0.0, 1.0, 0.0};
     glm::dvec3 centreMm{0.0};
-    double backOffMm = 0.0;   // rays start this far before the plane, in front of the lens
+    double backOffMm = 0.0;   // parallel rays start this far before the plane, in front of the lens
     double halfSizeMm = 0.0;  // [−half, half]² covers every ray that can enter the front aperture
     // Rays from a point: each from sourceMm through its plane point (direction is then the central
     // ray's, from the source through the first vertex).
     bool fromPoint = false;
     glm::dvec3 sourceMm{0.0};
+    double startZMm = 0.0;    // a point's rays start at this z (in front of the lens) or at the point
 
     static PupilGrid forDirection(const LensSystem& lens, const glm::dvec3& direction);
     // The rays from a point in front of the lens (inFront; else std::invalid_argument).
@@ -50,16 +51,18 @@ struct PupilGrid {
         if (fromPoint) return rayFrom(sourceMm, aMm, bMm);
         return {centreMm + aMm * e1 + bMm * e2 - backOffMm * direction, direction};
     }
-    // The ray from pointMm through the plane point (a, b). It starts backOffMm before the plane
-    // (in front of the lens, whatever its inclination within the fan), or at the point when that
-    // is nearer: a far light's rays then start near the lens, where their arithmetic is as precise
-    // as a directional light's (from 10⁹ mm away, a sphere's intersection would lose 9 digits).
+    // The ray from pointMm (in front of the lens) through the plane point (a, b). It starts where
+    // it crosses z = startZMm, just in front of the lens whatever its inclination, or at the point
+    // when that is nearer; measured back from the plane point, so that a far light's rays start
+    // near the lens with a directional light's precision (from 10⁹ mm away, a sphere's
+    // intersection would lose 9 digits).
     Ray rayFrom(const glm::dvec3& pointMm, double aMm, double bMm) const {
         const glm::dvec3 onPlane = centreMm + aMm * e1 + bMm * e2;
         const glm::dvec3 toPlane = onPlane - pointMm;
         const double distanceMm = glm::length(toPlane);
         const glm::dvec3 d = toPlane / distanceMm;
-        return {distanceMm > backOffMm ? onPlane - backOffMm * d : pointMm, d};
+        const double backMm = (onPlane.z - startZMm) / d.z;
+        return {d.z > 0.0 && distanceMm > backMm ? onPlane - backMm * d : pointMm, d};
     }
     // Area of the front clear aperture projected on the plane (mm²): the cross-section of the
     // beam that enters the lens. Counted on a cells × cells grid.

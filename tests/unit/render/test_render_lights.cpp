@@ -19,6 +19,7 @@
 
 #include "flare/core/Error.h"
 #include "flare/optics/PupilGrid.h"
+#include "flare/optics/RealRays.h"
 #include "flare/photons/Light.h"
 #include "flare/render/Render.h"
 #include "flare/scene/Scene.h"
@@ -196,7 +197,8 @@ TEST(RenderLights, PointGridRaysFanFromTheSource) {
             const glm::dvec3 onPlane = grid.centreMm + a * grid.e1 + b * grid.e2;
             EXPECT_LT(glm::length(glm::cross(r.direction, glm::normalize(onPlane - source))), 1e-12);
             EXPECT_LT(glm::length(glm::cross(r.direction, glm::normalize(r.originMm - source))), 1e-9);
-            EXPECT_LT(r.originMm.z, lens.surface(0).vertexZMm - 1.0);
+            // In front of the lens's foremost point (1 mm ahead of it), or at the source.
+            EXPECT_LE(r.originMm.z, objectSpaceStartZMm(lens) + 1e-9);
         }
     // Every ray that enters the front aperture crosses the plane inside the window: the entering
     // area counted on the window equals the aperture's solid angle seen from the source, projected.
