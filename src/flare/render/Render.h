@@ -1,7 +1,7 @@
 // The final render: light from every light through the lens onto the sensor, estimated into
 // layers (direct, ghost, higher, scatter, and one per ghost on request).
 //
-// Every light path belongs to exactly one estimator (DESIGN.md, "the one rule"):
+// Every light path belongs to exactly one estimator (the rule that keeps the hybrid unbiased):
 //   beams    (guided mode, every light) each kept ghost path is owned for the pupil points
 //            inside its guide mask. Its image is estimated per pass by beams (GhostBeam.h): the
 //            path meshed at a sampled wavelength, sample of the light's extent (a direction within
