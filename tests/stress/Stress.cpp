@@ -420,7 +420,7 @@ struct Context {
     void fail(const std::string& what, const std::string& header, bool countAsFailure = true) {
         std::string where = "lens " + std::to_string(lensIndex) + " (seed " + std::to_string(config.seed) + ")";
         std::string file;
-        if (!config.reproducerDir.empty() && reproducers < 20) {
+        if (!config.reproducerDir.empty() && reproducers < 20 && (countAsFailure || config.findingReproducers)) {
             std::filesystem::create_directories(config.reproducerDir);
             file = config.reproducerDir + "/" + tag + "-seed" + std::to_string(config.seed) + "-lens" +
                    std::to_string(lensIndex) + "-" + std::to_string(reproducers++) + ".lens";
@@ -809,6 +809,9 @@ StressReport runRenderStress(const StressConfig& config) {
         std::filesystem::remove(lensPath);
         if (report.failures.empty()) std::filesystem::remove(scenePath);
     });
+    // A clean run leaves nothing behind: the folder goes too when it is empty.
+    std::error_code ec;
+    std::filesystem::remove(dir, ec);
     return report;
 }
 

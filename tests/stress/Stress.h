@@ -24,6 +24,9 @@ struct StressConfig {
     int renderPasses = 2;
     int maxLights = 3;        // lights per rendered scene: 1 … maxLights
     std::string reproducerDir;  // where failures are written as replayable files ("" = nowhere)
+    // Also write the findings that are not failures (photons stopped at the event limit, ...):
+    // the long run keeps them to study; the default suite writes nothing it need not.
+    bool findingReproducers = false;
     // Real lenses instead of random ones (e.g. the lens library): lens i is lensFiles[i % size],
     // built at its first zoom position.
     std::vector<std::string> lensFiles;

@@ -39,6 +39,7 @@ StressConfig config() {
     if (const char* lenses = std::getenv("FLARE_STRESS_LENSES")) c.lenses = std::atoi(lenses);
     const char* out = std::getenv("FLARE_STRESS_OUT");
     c.reproducerDir = out ? out : (std::filesystem::temp_directory_path() / "flare_stress").string();
+    c.findingReproducers = FLARE_STRESS_FULL || out != nullptr;
     return c;
 }
 
