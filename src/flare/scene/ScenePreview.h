@@ -23,9 +23,10 @@
 
 namespace flare {
 
-// The preview traces parallel rays. A point or disk light at distance d is previewed as a distant
-// source in its direction with irradiance I/d² at the lens (exact in the far field, d ≫ the
-// aperture) and, for a disk, the angular diameter it subtends.
+// The light as the mesh preview of its own (direct) image sees it: its rays are the light's (the
+// analysis's grid), carrying a uniform irradiance, I/d² at the lens for a point or disk light at
+// distance d (exact in the far field, d ≫ the aperture), and for a disk the angular diameter it
+// subtends. The preview's ghosts are the render's beams, which weight each ray exactly.
 PreviewLight previewLight(const LightSpec& spec, int wavelengths);
 
 // How long the preview renders: `passes` passes of the final render's beams, or (timeS > 0) as
