@@ -1,5 +1,6 @@
 #include "PreviewCommand.h"
 
+#include "LayersOption.h"
 #include "StarburstReport.h"
 
 #include <algorithm>
@@ -21,7 +22,7 @@ struct PreviewCommandOptions {
     std::string scene;  // "" = the embedded default scene
     std::string exr;
     std::string png;
-    bool layers = false;
+    LayersOption layers;
     bool floatLayers = false;
     bool noDiffraction = false;
     bool higher = false;
@@ -54,23 +55,27 @@ void run(const PreviewCommandOptions& o) {
         budget.timeS = std::max(1e-3, o.timeS - std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
     if (o.seed >= 0) budget.seed = static_cast<std::uint64_t>(o.seed);
     budget.higher = o.higher;
-    ScenePreview preview = previewScene(scene, lens, o.layers, budget);
+    budget.ghostLayers = o.layers.selection;
+    ScenePreview preview = previewScene(scene, lens, o.layers.given, budget);
     // The light's own image is 10⁴–10⁶ times brighter than its ghosts: the PNG is exposed for the
     // ghosts (two stops under the ghost layer's auto exposure, so that overlapping ghosts keep their
     // colour) and the light clips, as a photograph of a flare does.
     const double pngExposure =
         o.png.empty() ? 0.0
                       : 0.25 * autoExposure(rgbLayerFromXyz("ghost", preview.ghosts, preview.widthPx, preview.heightPx));
-    const std::vector<ImageLayer> layers = previewLayers(preview, o.layers);
-    // Per-ghost layers (ghost_...) at half precision (11 significant bits, what
-    // compositing uses), which halves the file: as half floats where the layer's values fit half's
-    // range, else as floats rounded to half's precision (a weak ghost can lie below half's range in
-    // the lights' units). The main image and the direct and ghost layers stay exact.
+    const std::vector<ImageLayer> layers = previewLayers(preview, o.layers.given);
+    // Per-ghost layers (ghost_...) each as a part of its own over its footprint, at half precision
+    // (11 significant bits, what compositing uses), which halves the file: as half floats where the
+    // layer's values fit half's range, else as floats rounded to half's precision (a weak ghost can
+    // lie below half's range in the lights' units). The main image and the direct and ghost layers
+    // stay exact.
     ExrWriteOptions storage;
-    if (!o.floatLayers)
-        for (size_t i = 0; i < layers.size(); ++i)
-            if (layers[i].name.starts_with("ghost_"))
-                storage.storage[layers[i].name] = fitsHalf(layers[i]) ? ExrStorage::Half : ExrStorage::FloatHalfPrecision;
+    for (size_t i = 0; i < layers.size(); ++i) {
+        if (!layers[i].name.starts_with("ghost_")) continue;
+        storage.ownParts.insert(layers[i].name);
+        if (!o.floatLayers)
+            storage.storage[layers[i].name] = fitsHalf(layers[i]) ? ExrStorage::Half : ExrStorage::FloatHalfPrecision;
+    }
     const std::vector<std::pair<std::string, std::string>> metadata = {
         {"software", "flare preview"},
         {"colorSpace", "linear Rec.709 (sRGB primaries, D65 white)"},
@@ -105,8 +110,9 @@ void addPreviewCommand(CLI::App& app) {
     preview->add_option("SCENE", o->scene, "scene file (JSON); default: the embedded default scene");
     preview->add_option("-o,--output", o->exr, "EXR file to write")->required();
     preview->add_option("--png", o->png, "also write a tone-mapped PNG");
-    preview->add_flag("--layers", o->layers,
-                      "add layers: direct, starburst (the direct image diffracted), ghost (32-bit float) and one per ghost (ghost_03_07.R/G/B, half precision)");
+    addLayersOption(preview, o->layers,
+                    "add layers: direct, starburst (the direct image diffracted), ghost (32-bit float) and one per ghost "
+                    "(ghost_03_07.R/G/B, half precision)");
     preview->add_flag("--no-diffraction", o->noDiffraction,
                       "leave the light's own image geometric: no starburst (as the scene's render.diffraction: false)");
     preview->add_flag("--float-layers", o->floatLayers, "with --layers: store the per-ghost layers as exact 32-bit float");
@@ -123,6 +129,7 @@ void addPreviewCommand(CLI::App& app) {
     preview->add_flag("--quiet", o->quiet, "no statistics on stderr");
     preview->callback([o, preview] {
         o->pngGiven = preview->count("--png") > 0;
+        resolveLayersOption(preview, o->layers, o->scene);
         run(*o);
     });
 }

@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 
+#include "LayersOption.h"
 #include "Output.h"
 #include "StarburstReport.h"
 #include "flare/core/Error.h"
@@ -48,7 +49,7 @@ struct RenderCommandOptions {
     int threads = 0;
     double checkpointIntervalS = 60.0;
     double interiorAlbedo = -1.0;  // < 0: the scene's finishes
-    bool layers = false;
+    LayersOption layers;
     bool noDiffraction = false;
     bool analogStray = false;
     bool quiet = false;
@@ -235,7 +236,8 @@ int run(const RenderCommandOptions& o) {
     if (o.maxBounces >= -1) overrides.maxBounces = o.maxBounces;
     if (o.beamsPerPass > 0) overrides.beamsPerPass = o.beamsPerPass;
     overrides.beamReplicates = o.beamReplicates;
-    overrides.perGhostLayers = o.layers;
+    overrides.perGhostLayers = o.layers.given;
+    overrides.ghostLayers = o.layers.selection;
     overrides.higherOrder = o.higherOrder == "on"    ? RenderOptions::HigherOrder::On
                             : o.higherOrder == "off" ? RenderOptions::HigherOrder::Off
                                                      : RenderOptions::HigherOrder::Auto;
@@ -336,8 +338,12 @@ int run(const RenderCommandOptions& o) {
         {"photons", std::to_string(s.photons)},
         {"seed", std::to_string(options.seed)},
     };
-    // PIZ: a render's layers are grainy, where it beats ZIP in size and time (ImageIO.h).
-    writeExr(outputs, o.exr, layers, metadata, {.storage = {}, .compression = ExrCompression::Piz});
+    // PIZ: a render's layers are grainy, where it beats ZIP in size and time (ImageIO.h). Each
+    // per-ghost layer is a part of its own, over its footprint.
+    ExrWriteOptions exrOptions{.storage = {}, .compression = ExrCompression::Piz, .ownParts = {}};
+    for (const ImageLayer& layer : layers)
+        if (layer.name.starts_with("ghost_")) exrOptions.ownParts.insert(layer.name);
+    writeExr(outputs, o.exr, layers, metadata, exrOptions);
     if (o.pngGiven) {
         const ImageLayer& ghost = layers[1 + kLayerGhost];
         writePng(outputs, o.png, layers.front(), 0.25 * autoExposure(ghost));
@@ -395,9 +401,9 @@ void addRenderCommand(CLI::App& app) {
         ->check(CLI::Range(2, kMaxReplicates));
     render->add_option("--seed", o->seed, "random seed (default: the scene's)")->check(CLI::NonNegativeNumber);
     render->add_option("--threads", o->threads, "worker threads (default: all cores)")->check(CLI::PositiveNumber);
-    render->add_flag("--layers", o->layers,
-                     "add one layer per kept ghost (ghost_03_07.R/G/B) and per scatter source the scene has "
-                     "(scatter_housing, scatter_dust, scatter_grease, scatter_bulk)");
+    addLayersOption(render, o->layers,
+                    "add one layer per kept ghost (ghost_03_07.R/G/B) and per scatter source the scene has "
+                    "(scatter_housing, scatter_dust, scatter_grease, scatter_bulk)");
     render->add_flag("--no-diffraction", o->noDiffraction,
                      "leave the light's own image geometric: no starburst layer (as the scene's render.diffraction: false)");
     render->add_flag("--analog-stray", o->analogStray,
@@ -430,6 +436,7 @@ void addRenderCommand(CLI::App& app) {
         o->pngGiven = render->count("--png") > 0;
         o->reportGiven = render->count("--report") > 0;
         o->checkpointGiven = render->count("--checkpoint") > 0;
+        resolveLayersOption(render, o->layers, o->scene);
         const int code = run(*o);
         if (code != 0) throw CLI::RuntimeError(code);
     });

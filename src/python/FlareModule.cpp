@@ -9,6 +9,7 @@
 #include <cstring>
 #include <memory>
 #include <optional>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -23,6 +24,7 @@
 #include "flare/core/Error.h"
 #include "flare/film/ImageCompare.h"
 #include "flare/film/ImageIO.h"
+#include "flare/film/LayerSelection.h"
 #include "flare/ghosts/GhostAnalysis.h"
 #include "flare/ghosts/GhostTable.h"
 #include "flare/optics/EmbeddedLenses.h"
@@ -72,10 +74,60 @@ py::array_t<float> toArray(const ImageLayer& layer) {
     return array;
 }
 
-py::dict toDict(const std::vector<ImageLayer>& layers) {
+// A layer over a window of its frame (a ghost's footprint): its pixels, where they lie, and the
+// whole frame on request.
+struct Footprint {
+    std::string name;
+    int x = 0, y = 0, frameWidth = 0, frameHeight = 0;
+    py::array_t<float> rgb;
+
+    py::array_t<float> full() const {
+        py::array_t<float> whole({frameHeight, frameWidth, 3});
+        float* out = whole.mutable_data();
+        std::memset(out, 0, static_cast<size_t>(whole.size()) * sizeof(float));
+        const auto pixels = rgb.unchecked<3>();
+        for (py::ssize_t r = 0; r < pixels.shape(0); ++r)
+            for (py::ssize_t c = 0; c < pixels.shape(1); ++c)
+                for (int k = 0; k < 3; ++k)
+                    out[((static_cast<size_t>(y) + r) * frameWidth + x + c) * 3 + k] = pixels(r, c, k);
+        return whole;
+    }
+};
+
+// The layers as Python values, each layer's memory released once copied (one copy at a time): a
+// Footprint for a layer over a window of the frame or named in `footprints` (the per-ghost layers,
+// which an EXR holds in parts of their own, even where one covers the frame), else an array.
+py::dict toDict(std::vector<ImageLayer> layers, int frameWidth, int frameHeight, const std::set<std::string>& footprints) {
     py::dict dict;
-    for (const ImageLayer& layer : layers) dict[py::str(layer.name)] = toArray(layer);
+    for (ImageLayer& layer : layers) {
+        const bool whole = layer.x == 0 && layer.y == 0 && layer.width == frameWidth && layer.height == frameHeight;
+        if (whole && !footprints.count(layer.name)) dict[py::str(layer.name)] = toArray(layer);
+        else dict[py::str(layer.name)] = Footprint{layer.name, layer.x, layer.y, frameWidth, frameHeight, toArray(layer)};
+        std::vector<float>().swap(layer.rgb);
+    }
     return dict;
+}
+// An engine's images (the first the whole frame): the per-ghost layers (ghost_...) as Footprints.
+py::dict toDict(std::vector<ImageLayer> layers) {
+    const int width = layers.empty() ? 0 : layers.front().width, height = layers.empty() ? 0 : layers.front().height;
+    std::set<std::string> perGhost;
+    for (const ImageLayer& layer : layers)
+        if (layer.name.starts_with("ghost_")) perGhost.insert(layer.name);
+    return toDict(std::move(layers), width, height, perGhost);
+}
+
+// `layers=` of preview and render: False, True (every ghost), or "all", "top:N", "share:F".
+std::optional<LayerSelection> layerSelection(const py::object& layers) {
+    if (py::isinstance<py::bool_>(layers))
+        return layers.cast<bool>() ? std::optional<LayerSelection>(LayerSelection{}) : std::nullopt;
+    if (py::isinstance<py::str>(layers)) {
+        try {
+            return LayerSelection::parse(layers.cast<std::string>());
+        } catch (const std::invalid_argument& e) {
+            throw py::value_error(e.what());
+        }
+    }
+    throw py::type_error("layers: False, True, \"all\", \"top:N\" or \"share:F\"");
 }
 
 using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
@@ -178,7 +230,7 @@ Scene withDiffraction(const Scene& scene, std::optional<bool> diffraction) {
     return copy;
 }
 
-py::dict preview(const Scene& sceneIn, bool layers, int threads, std::optional<bool> diffraction, int passes,
+py::dict preview(const Scene& sceneIn, const py::object& layersArgument, int threads, std::optional<bool> diffraction, int passes,
                  double timeS, std::optional<long long> seed, bool higher) {
     const Scene scene = withDiffraction(sceneIn, diffraction);
     // Checked as the CLI checks them.
@@ -190,6 +242,9 @@ py::dict preview(const Scene& sceneIn, bool layers, int threads, std::optional<b
     budget.timeS = timeS;
     if (seed) budget.seed = static_cast<std::uint64_t>(*seed);
     budget.higher = higher;
+    const std::optional<LayerSelection> selection = layerSelection(layersArgument);
+    const bool layers = selection.has_value();
+    if (selection) budget.ghostLayers = *selection;
     std::vector<ImageLayer> images;
     {
         py::gil_scoped_release release;
@@ -198,7 +253,7 @@ py::dict preview(const Scene& sceneIn, bool layers, int threads, std::optional<b
         ScenePreview result = previewScene(scene, lens, layers, budget);
         images = previewLayers(result, layers);
     }
-    return toDict(images);
+    return toDict(std::move(images));
 }
 
 RenderOptions::Mode renderMode(const std::string& mode) {
@@ -274,7 +329,7 @@ py::dict render(const Scene& scene, const RenderArguments& arguments, const Scen
                                        options->film.heightPx);
         images = renderLayers(*renderer, starburst ? &*starburst : nullptr);
     }
-    return toDict(images);
+    return toDict(std::move(images));
 }
 
 // An EXR path (its layer `layer`) or an array of shape (height, width, 3).
@@ -339,6 +394,31 @@ PYBIND11_MODULE(flare, m) {
         .def("__repr__", [](const ParaxialData& p) {
             return "<flare.Paraxial EFL " + std::to_string(p.eflMm) + " mm, f/" + std::to_string(p.fNumber) + " at " +
                    std::to_string(p.wavelengthNm) + " nm>";
+        });
+
+    py::class_<Footprint>(m, "Footprint",
+                          "A layer over a window of its frame (a ghost's footprint: the bounding box of the pixels it "
+                          "reaches; every pixel outside is zero). np.asarray(footprint) is the whole frame.")
+        .def_readonly("name", &Footprint::name)
+        .def_readonly("x", &Footprint::x, "the window's first column in the frame")
+        .def_readonly("y", &Footprint::y, "the window's first row in the frame (0 = top)")
+        .def_property_readonly("width", [](const Footprint& f) { return static_cast<int>(f.rgb.shape(1)); })
+        .def_property_readonly("height", [](const Footprint& f) { return static_cast<int>(f.rgb.shape(0)); })
+        .def_property_readonly("frame_size", [](const Footprint& f) { return py::make_tuple(f.frameWidth, f.frameHeight); },
+                               "(width, height) of the whole frame")
+        .def_readonly("rgb", &Footprint::rgb, "the window's pixels: float32 (height, width, 3), linear Rec.709 RGB")
+        .def("full", &Footprint::full, "the layer over the whole frame: float32 (frame height, frame width, 3)")
+        .def(
+            "__array__",
+            [](const Footprint& f, const py::object& dtype, const py::object&) {
+                py::array whole = f.full();
+                return dtype.is_none() ? whole : py::array(whole.attr("astype")(dtype));
+            },
+            py::arg("dtype") = py::none(), py::arg("copy") = py::none())
+        .def("__repr__", [](const Footprint& f) {
+            return "<flare.Footprint '" + f.name + "' " + std::to_string(f.rgb.shape(1)) + "x" +
+                   std::to_string(f.rgb.shape(0)) + " at (" + std::to_string(f.x) + ", " + std::to_string(f.y) +
+                   ") of " + std::to_string(f.frameWidth) + "x" + std::to_string(f.frameHeight) + ">";
         });
 
     py::class_<Lens>(m, "Lens", "A lens at one zoom/focus/f-stop state")
@@ -449,12 +529,14 @@ PYBIND11_MODULE(flare, m) {
           "order-4 chains). Its per-ghost layers as with --float-layers: a dict "
           "of float32 arrays (height, width, 3), linear Rec.709 RGB in W/m2, keyed by EXR layer name: '' (the main "
           "image, with the starburst in place of the direct image when diffraction is on), then with layers=True "
-          "'direct', 'starburst', 'ghost' and one per kept ghost ('ghost_03_07', ...). diffraction: None takes the "
-          "scene's render.diffraction, False is --no-diffraction");
+          "'direct', 'starburst', 'ghost' and one per kept ghost ('ghost_03_07', ...) as a Footprint (its pixels over the "
+          "bounding box of the pixels it reaches); layers='top:N' or 'share:F' keeps the N strongest ghosts, or the "
+          "strongest until they hold F of the ghosts' power, and sums the others in 'ghost_other', as --layers does. "
+          "diffraction: None takes the scene's render.diffraction, False is --no-diffraction");
     m.def(
         "render",
         [](const Scene& scene, std::optional<std::int64_t> photons, std::optional<double> timeS, double targetError,
-           std::optional<std::uint64_t> seed, int threads, const std::string& mode, bool layers,
+           std::optional<std::uint64_t> seed, int threads, const std::string& mode, const py::object& layers,
            std::optional<int> maxBounces, const std::string& higherOrderChoice, const std::string& kernelChoice,
            double radiusPx, int smoothNeighbours, std::optional<double> interiorAlbedo, std::optional<bool> diffraction,
            bool analogStray, int beamReplicates) {
@@ -464,7 +546,9 @@ PYBIND11_MODULE(flare, m) {
             overrides.mode = renderMode(mode);
             overrides.seed = seed;
             overrides.maxBounces = maxBounces;
-            overrides.perGhostLayers = layers;
+            const std::optional<LayerSelection> selection = layerSelection(layers);
+            overrides.perGhostLayers = selection.has_value();
+            if (selection) overrides.ghostLayers = *selection;
             overrides.higherOrder = higherOrder(higherOrderChoice);
             overrides.kernel = kernel(kernelChoice);
             overrides.radiusPx = radiusPx;
@@ -484,8 +568,9 @@ PYBIND11_MODULE(flare, m) {
         "The physically based render, as `flare render` with the same options and defaults (it stops at the target "
         "error, time_s or photons, whichever comes first; without either limit at the scene's photon count): a dict "
         "of float32 arrays (height, width, 3) keyed by EXR layer name: '' (the sum, the starburst in place of the "
-        "direct layer when diffraction is on), 'direct', 'ghost', 'higher', 'scatter', per-ghost and "
-        "per-scatter-source layers with layers=True, 'starburst' with diffraction, then 'variance' when estimated. "
+        "direct layer when diffraction is on), 'direct', 'ghost', 'higher', 'scatter', per-ghost (each a Footprint) and "
+        "per-scatter-source layers with layers=True ('top:N' or 'share:F' as --layers), 'starburst' with diffraction, "
+        "then 'variance' when estimated. "
         "diffraction: None takes the scene's render.diffraction, False is --no-diffraction. The "
         "image depends on the seed, never on the thread count.");
     m.def(
@@ -501,12 +586,14 @@ PYBIND11_MODULE(flare, m) {
     m.def(
         "read_exr",
         [](const std::string& path) {
-            std::vector<ImageLayer> layers;
+            ExrImage image;
             {
                 py::gil_scoped_release release;
-                layers = readExr(path);
+                image = readExrImage(path);
             }
-            return toDict(layers);
+            return toDict(std::move(image.layers), image.width, image.height, image.ownParts);
         },
-        py::arg("path"), "every RGB layer of an EXR as float32 arrays (height, width, 3), keyed by layer name");
+        py::arg("path"),
+        "every RGB layer of an EXR keyed by layer name: a float32 array (height, width, 3) for a layer over the "
+        "whole frame, a Footprint for one over a window of it (the per-ghost parts of --layers)");
 }

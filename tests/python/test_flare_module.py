@@ -56,13 +56,19 @@ class FlareModuleTest(unittest.TestCase):
         return os.path.join(self.scratch.name, name)
 
     def assertImagesEqual(self, images, expected):
-        """Same layer names, and every layer equal bit for bit."""
+        """Same layer names, and every layer equal bit for bit (a per-ghost Footprint: over the same
+        window of the same frame)."""
         self.assertEqual(sorted(images), sorted(expected))
         for name, image in images.items():
             with self.subTest(layer=name):
+                other = expected[name]
+                self.assertEqual(type(image), type(other))
+                if isinstance(image, flare.Footprint):
+                    self.assertEqual((image.x, image.y, image.frame_size), (other.x, other.y, other.frame_size))
+                    image, other = image.rgb, other.rgb
                 self.assertEqual(image.dtype, np.float32)
-                self.assertEqual(image.shape, expected[name].shape)
-                self.assertTrue(np.array_equal(image.view(np.uint32), expected[name].view(np.uint32)),
+                self.assertEqual(image.shape, other.shape)
+                self.assertTrue(np.array_equal(image.view(np.uint32), other.view(np.uint32)),
                                 f"layer {name!r} differs from the CLI's")
 
     # Lenses.
@@ -128,6 +134,46 @@ class FlareModuleTest(unittest.TestCase):
         self.assertGreater(len(images), 4)  # per-ghost layers
         self.assertImagesEqual(images, expected)
         self.assertGreater(float(images["ghost"].sum()), 0.0)
+
+    def test_per_ghost_layers_are_footprints_that_add_up_to_the_ghost_layer(self):
+        """Each per-ghost layer covers the bounding box of its pixels; with layers="top:3" the three
+        strongest keep theirs and ghost_other holds the rest: the sums equal the ghost layer to float
+        rounding, as in the CLI's EXR."""
+        every = flare.preview(self.scene, layers=True, diffraction=False)
+        top = flare.preview(self.scene, layers="top:3", diffraction=False)
+        exr = self.scratch_path("preview-top3.exr")
+        run_cli("preview", self.scene_path, "-o", exr, "--layers", "top:3", "--float-layers", "--quiet",
+                "--no-diffraction")
+        self.assertImagesEqual(top, flare.read_exr(exr))
+        ghosts = {name: layer for name, layer in every.items() if name.startswith("ghost_")}
+        kept = sorted(name for name in top if name.startswith("ghost_") and name != "ghost_other")
+        self.assertEqual(len(kept), 3)
+        self.assertIn("ghost_other", top)
+        for images, names in ((every, ghosts), (top, kept + ["ghost_other"])):
+            total = np.zeros((HEIGHT_PX, WIDTH_PX, 3), dtype=np.float64)
+            for name in names:
+                layer = images[name]
+                self.assertIsInstance(layer, flare.Footprint)
+                self.assertEqual(layer.frame_size, (WIDTH_PX, HEIGHT_PX))
+                whole = np.asarray(layer)
+                self.assertTrue(np.array_equal(whole, layer.full()))
+                window = whole[layer.y:layer.y + layer.height, layer.x:layer.x + layer.width]
+                self.assertTrue(np.array_equal(window, layer.rgb))
+                outside = whole.copy()
+                outside[layer.y:layer.y + layer.height, layer.x:layer.x + layer.width] = 0.0
+                self.assertFalse(outside.any())
+                lit = np.any(layer.rgb != 0, axis=2)  # the window is the lit pixels' bounding box
+                self.assertTrue(lit[0].any() and lit[-1].any() and lit[:, 0].any() and lit[:, -1].any())
+                total += whole
+            # Each pixel is a sum of float32 conversions of the same double sums: within a few
+            # float ulps of the pixel's magnitude per layer.
+            reference = images["ghost"].astype(np.float64)
+            tolerance = 4 * len(names) * np.finfo(np.float32).eps * np.abs(reference).max()
+            self.assertLess(float(np.abs(total - reference).max()), tolerance)
+        with self.assertRaisesRegex(ValueError, "top:N"):
+            flare.preview(self.scene, layers="top:0")
+        with self.assertRaises(TypeError):
+            flare.preview(self.scene, layers=3)
 
     def test_the_preview_without_diffraction_equals_the_cli_bit_for_bit(self):
         images = flare.preview(self.scene, layers=True, diffraction=False)

@@ -17,86 +17,27 @@
 
 #include "flare/core/Replicates.h"
 #include "flare/core/Spectrum.h"
+#include "flare/film/FilmTiles.h"
 
 namespace flare {
 
 namespace {
 
-constexpr int kTilePx = 32;
+using film::kTilePx;
+using film::readRaw;
+using film::writeRaw;
 constexpr int kCountBlockPx = 8;
 constexpr double kMm2PerM2 = 1e6;
-constexpr std::uint64_t kFilmMagic = 0x35464c4946524c46ull;  // "FLRFILF5"
-
-template <class T>
-void writeRaw(std::ostream& out, const T& value) {
-    out.write(reinterpret_cast<const char*>(&value), sizeof(T));
-}
-template <class T>
-T readRaw(std::istream& in) {
-    T value{};
-    in.read(reinterpret_cast<char*>(&value), sizeof(T));
-    if (!in) throw std::runtime_error("checkpoint: truncated film data");
-    return value;
-}
+constexpr std::uint64_t kFilmMagic = 0x36464c4946524c46ull;  // "FLRFILF6"
 
 }  // namespace
 
-// A layer of 3 doubles per pixel, stored as 32×32 tiles allocated on first touch.
-struct Film::Tiles {
-    int width, height, tilesX, tilesY;
-    std::vector<std::unique_ptr<double[]>> tiles;
-    // Zeroed tiles given back (recycle) for the next allocations: a pass's tiles are allocated
-    // again every pass, and fresh memory costs page faults. Bands allocate in parallel.
-    std::vector<std::unique_ptr<double[]>> spare;
-    std::unique_ptr<std::mutex> spareMutex = std::make_unique<std::mutex>();
-
-    Tiles(int w, int h)
-        : width(w), height(h), tilesX((w + kTilePx - 1) / kTilePx), tilesY((h + kTilePx - 1) / kTilePx),
-          tiles(static_cast<size_t>(tilesX) * tilesY) {}
-
-    double* at(int x, int y) {
-        auto& tile = tiles[static_cast<size_t>(y / kTilePx) * tilesX + x / kTilePx];
-        if (!tile) {
-            std::lock_guard<std::mutex> lock(*spareMutex);
-            if (spare.empty()) {
-                tile = std::make_unique<double[]>(kTilePx * kTilePx * 3);  // zeroed
-            } else {
-                tile = std::move(spare.back());
-                spare.pop_back();
-            }
-        }
-        return &tile[(static_cast<size_t>(y % kTilePx) * kTilePx + x % kTilePx) * 3];
-    }
-    // Tile t, which must be all zeros, goes back to the spares.
-    void recycle(size_t t) {
-        std::lock_guard<std::mutex> lock(*spareMutex);
-        spare.push_back(std::move(tiles[t]));
-    }
-    const double* find(int x, int y) const {
-        const auto& tile = tiles[static_cast<size_t>(y / kTilePx) * tilesX + x / kTilePx];
-        return tile ? &tile[(static_cast<size_t>(y % kTilePx) * kTilePx + x % kTilePx) * 3] : nullptr;
-    }
-    void clear() {
-        for (auto& tile : tiles) tile.reset();
-    }
-    void save(std::ostream& out) const {
-        for (const auto& tile : tiles) {
-            writeRaw<std::uint8_t>(out, tile ? 1 : 0);
-            if (tile) out.write(reinterpret_cast<const char*>(tile.get()), sizeof(double) * kTilePx * kTilePx * 3);
-        }
-    }
-    void load(std::istream& in) {
-        for (auto& tile : tiles) {
-            tile.reset();
-            if (readRaw<std::uint8_t>(in) == 0) continue;
-            tile = std::make_unique<double[]>(kTilePx * kTilePx * 3);
-            in.read(reinterpret_cast<char*>(tile.get()), sizeof(double) * kTilePx * kTilePx * 3);
-            if (!in) throw std::runtime_error("checkpoint: truncated film data");
-            // A NaN or infinity (a corrupt file) would reach the pixels, which writeExr refuses.
-            if (!std::all_of(tile.get(), tile.get() + kTilePx * kTilePx * 3, [](double v) { return std::isfinite(v); }))
-                throw std::runtime_error("checkpoint: non-finite film data");
-        }
-    }
+// A layer of 3 doubles per pixel (FilmTiles.h); single-precision layers hold floats.
+struct Film::Tiles : film::TileStore<double> {
+    using TileStore::TileStore;
+};
+struct Film::SingleTiles : film::TileStore<float> {
+    using TileStore::TileStore;
 };
 
 // Second differences of the running pass's wide kernels over the image padded by `pad` px on every
@@ -137,6 +78,7 @@ Film::Film(const FilmSettings& settings, int layerCount) : settings_(settings) {
         !(settings.progressiveAlpha > 0.0 && settings.progressiveAlpha < 1.0))
         throw std::invalid_argument("Film: invalid kernel settings");
     for (int l = 0; l < layerCount; ++l) layers_.push_back(std::make_unique<Tiles>(settings.widthPx, settings.heightPx));
+    singleLayers_.resize(static_cast<size_t>(layerCount));
     layerKernels_.assign(layerCount, {settings.kernel, settings.neighbours, settings.maxRadiusPx});
     layerGroups_.assign(layerCount, {});
     groups_.emplace_back(settings.widthPx, settings.heightPx, replicates_);
@@ -159,6 +101,19 @@ void Film::setLayerKernel(int layer, FilmSettings::Kernel kernel, int neighbours
     if (neighbours < 1 || !(maxRadiusPx >= 1.0)) throw std::invalid_argument("Film::setLayerKernel: invalid kernel settings");
     layerKernels_[layer] = {kernel, neighbours, maxRadiusPx, byPower && kernel == FilmSettings::Kernel::Adaptive};
     if (kernel == FilmSettings::Kernel::Adaptive) allocateCounts();
+}
+
+void Film::setLayerSinglePrecision(int layer) {
+    if (passes_ > 0) throw std::logic_error("Film::setLayerSinglePrecision after the first pass");
+    if (layer < 0 || layer >= layerCount()) throw std::invalid_argument("Film::setLayerSinglePrecision: no layer " + std::to_string(layer));
+    if (singleLayers_[layer]) return;
+    singleLayers_[layer] = std::make_unique<SingleTiles>(settings_.widthPx, settings_.heightPx);
+    layers_[layer].reset();
+}
+
+void Film::clearLayer(int layer) {
+    if (singleLayers_[layer]) singleLayers_[layer]->clear();
+    else layers_[layer]->clear();
 }
 
 Film::~Film() = default;
@@ -221,8 +176,13 @@ double Film::radiusPx(int layer, const glm::dvec2& sensorMm, double power) const
 }
 
 void Film::addPixel(int layer, bool inTotal, int x, int y, const double* value) {
-    double* p = layers_[layer]->at(x, y);
-    for (int c = 0; c < 3; ++c) p[c] += value[c];
+    if (SingleTiles* single = singleLayers_[layer].get()) {
+        float* p = single->at(x, y);
+        for (int c = 0; c < 3; ++c) p[c] = static_cast<float>(p[c] + value[c]);  // one rounding per addition
+    } else {
+        double* p = layers_[layer]->at(x, y);
+        for (int c = 0; c < 3; ++c) p[c] += value[c];
+    }
     if (inTotal) {
         double* q = groups_[0].pass->at(x, y);
         for (int c = 0; c < 3; ++c) q[c] += value[c];
@@ -243,12 +203,14 @@ void Film::addRow(int layer, bool inTotal, int y, int xBegin, int xEnd, const do
         const int n = (x1 - x0) * 3;
         bool any = false;
         for (int i = 0; i < n; ++i) any = any || v[i] != 0.0;
-        auto addRun = [&](Tiles& target) {
-            double* p = target.at(x0, y);
-            for (int i = 0; i < n; ++i) p[i] += v[i];
+        auto addRun = [&](auto& target) {
+            auto* p = target.at(x0, y);
+            using Value = std::remove_reference_t<decltype(*p)>;
+            for (int i = 0; i < n; ++i) p[i] = static_cast<Value>(p[i] + v[i]);  // (float: one rounding per addition)
         };
         if (any) {
-            addRun(*layers_[layer]);
+            if (SingleTiles* single = singleLayers_[layer].get()) addRun(*single);
+            else addRun(*layers_[layer]);
             if (inTotal) addRun(*groups_[0].pass);
             for (int g : layerGroups_[layer]) addRun(*groups_[g].pass);
         }
@@ -503,11 +465,57 @@ std::vector<float> Film::irradianceXyz(int layer, double photonsEmitted) const {
     std::vector<float> out(static_cast<size_t>(w) * h * 3, 0.0f);
     if (!(photonsEmitted > 0.0)) return out;
     const double scale = 1.0 / (photonsEmitted * pixelMm_ * pixelMm_ / kMm2PerM2);
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x)
-            if (const double* p = layers_[layer]->find(x, y))
-                for (int c = 0; c < 3; ++c) out[(static_cast<size_t>(y) * w + x) * 3 + c] = static_cast<float>(p[c] * scale);
+    auto read = [&](const auto& tiles) {
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x)
+                if (const auto* p = tiles.find(x, y))
+                    for (int c = 0; c < 3; ++c)
+                        out[(static_cast<size_t>(y) * w + x) * 3 + c] = static_cast<float>(p[c] * scale);
+    };
+    if (singleLayers_[layer]) read(*singleLayers_[layer]);
+    else read(*layers_[layer]);
     return out;
+}
+
+FilmWindow Film::irradianceXyzFootprint(int layer, double photonsEmitted) const {
+    FilmWindow window;
+    if (!(photonsEmitted > 0.0)) return window;
+    const double scale = 1.0 / (photonsEmitted * pixelMm_ * pixelMm_ / kMm2PerM2);
+    if (singleLayers_[layer]) return footprint(*singleLayers_[layer], scale);
+    return footprint(*layers_[layer], scale);
+}
+
+template <class Store>
+FilmWindow Film::footprint(const Store& tiles, double scale) const {
+    FilmWindow window;
+    auto value = [&](const auto* p, int c) { return static_cast<float>(p[c] * scale); };
+    // The bounding box of the non-zero pixels, from the allocated tiles alone.
+    int x0 = INT32_MAX, y0 = INT32_MAX, x1 = -1, y1 = -1;  // inclusive
+    for (int ty = 0; ty < tiles.tilesY; ++ty)
+        for (int tx = 0; tx < tiles.tilesX; ++tx) {
+            if (!tiles.tiles[static_cast<size_t>(ty) * tiles.tilesX + tx]) continue;
+            const int yEnd = std::min(tiles.height, (ty + 1) * kTilePx), xEnd = std::min(tiles.width, (tx + 1) * kTilePx);
+            for (int y = ty * kTilePx; y < yEnd; ++y)
+                for (int x = tx * kTilePx; x < xEnd; ++x) {
+                    const auto* p = tiles.find(x, y);
+                    if (value(p, 0) == 0.0f && value(p, 1) == 0.0f && value(p, 2) == 0.0f) continue;
+                    x0 = std::min(x0, x), x1 = std::max(x1, x);
+                    y0 = std::min(y0, y), y1 = std::max(y1, y);
+                }
+        }
+    if (x1 < 0) return window;
+    window.x = x0, window.y = y0, window.width = x1 - x0 + 1, window.height = y1 - y0 + 1;
+    window.xyz.assign(static_cast<size_t>(window.width) * window.height * 3, 0.0f);
+    for (int y = y0; y <= y1; ++y)
+        for (int x = x0; x <= x1; ++x)
+            if (const auto* p = tiles.find(x, y))
+                for (int c = 0; c < 3; ++c)
+                    window.xyz[(static_cast<size_t>(y - y0) * window.width + (x - x0)) * 3 + c] = value(p, c);
+    return window;
+}
+
+std::size_t Film::layerBytes(int layer) const {
+    return singleLayers_[layer] ? singleLayers_[layer]->bytes() : layers_[layer]->bytes();
 }
 
 bool Film::hasVariance() const { return replicates_ > 0 ? passes_ >= replicates_ : passes_ >= 2; }
@@ -617,7 +625,11 @@ void Film::save(std::ostream& out) const {
         writeRaw<double>(out, k.maxRadiusPx);
         writeRaw<std::uint8_t>(out, k.byPower ? 1 : 0);
     }
-    for (const auto& layer : layers_) layer->save(out);
+    for (int l = 0; l < layerCount(); ++l) writeRaw<std::uint8_t>(out, singleLayers_[l] ? 1 : 0);
+    for (int l = 0; l < layerCount(); ++l) {
+        if (singleLayers_[l]) singleLayers_[l]->save(out);
+        else layers_[l]->save(out);
+    }
     for (const Group& group : groups_)
         for (const auto& sums : group.sums) sums->save(out);
     for (const auto& counts : counts_) out.write(reinterpret_cast<const char*>(counts.data()), sizeof(std::uint32_t) * counts.size());
@@ -644,10 +656,20 @@ void Film::load(std::istream& in) {
             byPower != k.byPower)
             throw std::runtime_error("checkpoint: a layer's kernel differs from this render's");
     }
+    for (int l = 0; l < layers; ++l)
+        if ((readRaw<std::uint8_t>(in) != 0) != layerSinglePrecision(l))
+            throw std::runtime_error("checkpoint: a layer's precision differs from this render's");
     // Read everything into fresh buffers first: a bad file leaves this film untouched.
     std::vector<std::unique_ptr<Tiles>> loaded;
+    std::vector<std::unique_ptr<SingleTiles>> loadedSingle(static_cast<size_t>(layers));
     const int sumsPerGroup = static_cast<int>(groups_[0].sums.size());
     for (int l = 0; l < layers + sumsPerGroup * groups; ++l) {
+        if (l < layers && layerSinglePrecision(l)) {
+            loadedSingle[l] = std::make_unique<SingleTiles>(w, h);
+            loadedSingle[l]->load(in);
+            loaded.emplace_back();
+            continue;
+        }
         loaded.push_back(std::make_unique<Tiles>(w, h));
         loaded.back()->load(in);
     }
@@ -674,7 +696,10 @@ void Film::load(std::istream& in) {
                     throw std::runtime_error("checkpoint: inconsistent variance data");
         }
 
-    for (int l = 0; l < layers; ++l) layers_[l] = std::move(loaded[l]);
+    for (int l = 0; l < layers; ++l) {
+        layers_[l] = std::move(loaded[l]);
+        singleLayers_[l] = std::move(loadedSingle[l]);
+    }
     for (int g = 0; g < groups; ++g) {
         for (int k = 0; k < sumsPerGroup; ++k) groups_[g].sums[k] = std::move(loaded[layers + sumsPerGroup * g + k]);
         groups_[g].pass->clear();

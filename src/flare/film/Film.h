@@ -30,6 +30,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <iosfwd>
 #include <memory>
@@ -40,6 +41,15 @@
 #include <glm/vec3.hpp>
 
 namespace flare {
+
+// A window of a layer's image: the pixels [x, x + width) × [y, y + height) of the frame, interleaved
+// CIE XYZ, row-major from the window's top row. Empty (width = height = 0) for a layer no light
+// reached.
+struct FilmWindow {
+    int x = 0, y = 0, width = 0, height = 0;
+    std::vector<float> xyz;
+    bool empty() const { return width == 0 || height == 0; }
+};
 
 struct FilmSettings {
     enum class Kernel { Fixed, Progressive, Adaptive };
@@ -83,6 +93,18 @@ public:
                         bool byPower = false);
     FilmSettings::Kernel layerKernel(int layer) const { return layerKernels_[layer].kernel; }
 
+    // Accumulates `layer` in single precision (before the first pass): half the memory of the
+    // double sums, for layers that are only read out (per-ghost layers: hundreds of them for a
+    // zoom lens, most of the film's memory). Each addition rounds the pixel's sum to float, a
+    // relative 2⁻²⁴: after n additions the sum is within about n × 2⁻²⁴ of the double sum (√n
+    // for rounding errors of random sign), far below the half precision such layers are written
+    // at. Its splats still count towards the total and its groups in double.
+    void setLayerSinglePrecision(int layer);
+    bool layerSinglePrecision(int layer) const { return singleLayers_[layer] != nullptr; }
+    // Frees a layer's pixels: it reads as zero afterwards (a preview takes each per-ghost layer's
+    // footprint in turn and frees it, holding one copy of it at a time).
+    void clearLayer(int layer);
+
     // A further variance group: the sum of `layers` (whatever the splats' inTotal). Returns its
     // index (1, 2, ...; group 0 is the total). Must be called before the first pass.
     int addVarianceGroup(const std::vector<int>& layers);
@@ -112,6 +134,12 @@ public:
     // Irradiance of a layer, W/m² in XYZ, interleaved, row-major from the top row, after
     // `photonsEmitted` photons in all: accumulated power / (photons · pixel area).
     std::vector<float> irradianceXyz(int layer, double photonsEmitted) const;
+    // The same over the layer's footprint: the bounding box of its pixels whose irradiance (as a
+    // float) is not zero in every channel; every pixel outside it is zero in irradianceXyz. Its
+    // memory and time follow the tiles light reached, not the frame (per-ghost layers).
+    FilmWindow irradianceXyzFootprint(int layer, double photonsEmitted) const;
+    // The bytes holding a layer's accumulated power: its tiles, allocated where light reached.
+    std::size_t layerBytes(int layer) const;
     // Per-pixel variance of a variance group's irradiance estimate (group 0: the total image;
     // linear Rec.709 RGB, (W/m²)²), from the spread between passes (or replicates). Empty before
     // two passes (before every replicate has one).
@@ -149,6 +177,7 @@ public:
 
 private:
     struct Tiles;
+    struct SingleTiles;
     struct Group;
     struct WideSplats;
     // Adds the kernel's weights × value for the pixels of rows [rowBegin, rowEnd) to `layer` and
@@ -174,6 +203,9 @@ private:
     void addWideKernel(int layer, bool inTotal, int cx, int cy, int m, const glm::dvec3& value, int rowBegin,
                        int rowEnd);
     void integrateWideSplats();
+    // irradianceXyzFootprint of one layer's tiles (double or float), `scale` from power to irradiance.
+    template <class Store>
+    FilmWindow footprint(const Store& tiles, double scale) const;
     // A tile's running sums in `group` (null where that sum has no tile); false if none has.
     bool tileSums(const Group& group, size_t tile, const double** sums) const;
     double varianceOfMean(const double* const* sums, int i) const;
@@ -184,7 +216,8 @@ private:
     int passes_ = 0;
     int replicates_ = 0;
     double neighbourGrowth_ = 1.0;  // max(passes, 1)^(2/3): kernels by power hold that many times more
-    std::vector<std::unique_ptr<Tiles>> layers_;
+    std::vector<std::unique_ptr<Tiles>> layers_;  // null for a single-precision layer
+    std::vector<std::unique_ptr<SingleTiles>> singleLayers_;  // per layer: its float tiles, or null
     std::vector<Group> groups_;                 // 0: the total
     std::vector<std::vector<int>> layerGroups_; // per layer: the groups ≥ 1 it belongs to
     // Adaptive kernel: photon counts per layer on a grid of kCountBlock² pixel blocks.

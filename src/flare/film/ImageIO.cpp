@@ -21,6 +21,11 @@
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfInputFile.h>
+#include <OpenEXR/ImfInputPart.h>
+#include <OpenEXR/ImfMultiPartInputFile.h>
+#include <OpenEXR/ImfMultiPartOutputFile.h>
+#include <OpenEXR/ImfOutputPart.h>
+#include <OpenEXR/ImfPartType.h>
 #include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/ImfStandardAttributes.h>
 #include <OpenEXR/ImfStdIO.h>
@@ -92,73 +97,132 @@ bool fitsHalf(const ImageLayer& layer) {
     return true;
 }
 
+namespace {
+
+// A layer's channels in a header, of its storage's type.
+void addLayerChannels(const ImageLayer& layer, ExrStorage storage, Imf::Header& header) {
+    for (int c = 0; c < 3; ++c)
+        header.channels().insert(channelName(layer.name, c), Imf::Channel(storage == ExrStorage::Half ? Imf::HALF : Imf::FLOAT));
+}
+
+// A layer's slices in a frame buffer, converted to its storage; the conversions are kept in
+// `halves` and `rounded` until the pixels are written. OpenEXR addresses pixels by absolute (x, y)
+// in the data window, which for a layer at (x, y) of the frame starts there.
+void addLayerSlices(const ImageLayer& layer, ExrStorage storage, Imf::FrameBuffer& frameBuffer,
+                    std::vector<std::vector<half>>& halves, std::vector<std::vector<float>>& rounded) {
+    const size_t rowValues = 3 * static_cast<size_t>(layer.width);
+    const ptrdiff_t originValues = -(static_cast<ptrdiff_t>(layer.y) * static_cast<ptrdiff_t>(rowValues) +
+                                     3 * static_cast<ptrdiff_t>(layer.x));
+    if (storage == ExrStorage::Half) {
+        std::vector<half>& h = halves.emplace_back(layer.rgb.size());
+        for (size_t i = 0; i < layer.rgb.size(); ++i) h[i] = half(layer.rgb[i]);
+        for (int c = 0; c < 3; ++c) {
+            char* base = reinterpret_cast<char*>(h.data() + c) + originValues * static_cast<ptrdiff_t>(sizeof(half));
+            frameBuffer.insert(channelName(layer.name, c),
+                               Imf::Slice(Imf::HALF, base, 3 * sizeof(half), rowValues * sizeof(half)));
+        }
+        return;
+    }
+    const float* data = layer.rgb.data();
+    if (storage == ExrStorage::FloatHalfPrecision) {
+        std::vector<float>& r = rounded.emplace_back(layer.rgb.size());
+        for (size_t i = 0; i < layer.rgb.size(); ++i) r[i] = toHalfPrecision(layer.rgb[i]);
+        data = r.data();
+    }
+    for (int c = 0; c < 3; ++c) {
+        char* base = const_cast<char*>(reinterpret_cast<const char*>(data + c)) +
+                     originValues * static_cast<ptrdiff_t>(sizeof(float));
+        frameBuffer.insert(channelName(layer.name, c),
+                           Imf::Slice(Imf::FLOAT, base, 3 * sizeof(float), rowValues * sizeof(float)));
+    }
+}
+
+Imath::Box2i windowBox(const ImageLayer& layer) {
+    return Imath::Box2i(Imath::V2i(layer.x, layer.y), Imath::V2i(layer.x + layer.width - 1, layer.y + layer.height - 1));
+}
+
+}  // namespace
+
 void writeExr(OutputFiles& outputs, const std::string& path, const std::vector<ImageLayer>& layers,
               const std::vector<std::pair<std::string, std::string>>& metadata, const ExrWriteOptions& options) {
     if (layers.empty()) throw std::invalid_argument("writeExr: no image layers for " + path);
+    const int width = layers[0].width, height = layers[0].height;
     std::set<std::string> names;
     for (const ImageLayer& layer : layers) {
         checkLayer(layer);
-        if (layer.width != layers[0].width || layer.height != layers[0].height)
-            throw std::invalid_argument("writeExr: layer \"" + layer.name + "\" is not the size of \"" +
-                                        layers[0].name + "\"");
+        const bool whole = layer.x == 0 && layer.y == 0 && layer.width == width && layer.height == height;
+        if (options.ownParts.count(layer.name)) {
+            if (&layer == &layers[0]) throw std::invalid_argument("writeExr: the first layer is the frame, not a part of its own");
+            if (layer.x < 0 || layer.y < 0 || layer.x + layer.width > width || layer.y + layer.height > height)
+                throw std::invalid_argument("writeExr: layer \"" + layer.name + "\"'s window lies outside the frame");
+        } else if (!whole) {
+            throw std::invalid_argument("writeExr: layer \"" + layer.name + "\" is not the whole frame of \"" +
+                                        layers[0].name + "\" and not a part of its own");
+        }
         if (!names.insert(layer.name).second)
             throw std::invalid_argument("writeExr: duplicate layer \"" + layer.name + "\"");
     }
-    const int width = layers[0].width, height = layers[0].height;
-
-    Imf::Header header(width, height);
-    header.compression() = options.compression == ExrCompression::Piz ? Imf::PIZ_COMPRESSION : Imf::ZIP_COMPRESSION;
-    Imf::addChromaticities(
-        header, Imf::Chromaticities(Imath::V2f(kRec709RedXy[0], kRec709RedXy[1]),
-                                    Imath::V2f(kRec709GreenXy[0], kRec709GreenXy[1]),
-                                    Imath::V2f(kRec709BlueXy[0], kRec709BlueXy[1]),
-                                    Imath::V2f(kD65WhiteXy[0], kD65WhiteXy[1])));
-    for (const auto& [key, value] : metadata) {
-        if (key.empty() || header.find(key) != header.end())
-            throw std::invalid_argument("writeExr: metadata key \"" + key +
-                                        "\" is empty or a standard attribute");
-        header.insert(key, Imf::StringAttribute(value));
-    }
     for (const auto& [name, storage] : options.storage)
         if (!names.count(name)) throw std::invalid_argument("writeExr: storage given for no layer \"" + name + "\"");
-    Imf::FrameBuffer frameBuffer;
-    std::vector<std::vector<half>> halves;  // converted layers, alive until the pixels are written
-    std::vector<std::vector<float>> rounded;
-    halves.reserve(layers.size());
-    rounded.reserve(layers.size());
     for (const ImageLayer& layer : layers) {
         const auto it = options.storage.find(layer.name);
-        const ExrStorage storage = it == options.storage.end() ? ExrStorage::Float : it->second;
-        const size_t rowFloats = 3 * static_cast<size_t>(width);
-        if (storage == ExrStorage::Half) {
-            std::vector<half>& h = halves.emplace_back(layer.rgb.size());
-            for (size_t i = 0; i < layer.rgb.size(); ++i) {
-                if (std::abs(layer.rgb[i]) > kHalfMax)
-                    throw std::logic_error("writeExr: layer \"" + layer.name + "\" has " + std::to_string(layer.rgb[i]) +
-                                           ", beyond half's range, at pixel " + std::to_string(i / 3));
-                h[i] = half(layer.rgb[i]);
-            }
-            for (int c = 0; c < 3; ++c) {
-                const std::string name = channelName(layer.name, c);
-                header.channels().insert(name, Imf::Channel(Imf::HALF));
-                frameBuffer.insert(name, Imf::Slice(Imf::HALF, reinterpret_cast<char*>(h.data() + c), 3 * sizeof(half),
-                                                    rowFloats * sizeof(half)));
-            }
+        if (it == options.storage.end() || it->second != ExrStorage::Half) continue;
+        for (size_t i = 0; i < layer.rgb.size(); ++i)
+            if (std::abs(layer.rgb[i]) > kHalfMax)
+                throw std::logic_error("writeExr: layer \"" + layer.name + "\" has " + std::to_string(layer.rgb[i]) +
+                                       ", beyond half's range, at pixel " + std::to_string(i / 3));
+    }
+    for (const std::string& name : options.ownParts)
+        if (!names.count(name)) throw std::invalid_argument("writeExr: a part given for no layer \"" + name + "\"");
+
+    // The first part: the whole-frame layers, the chromaticities and the metadata.
+    Imf::Header first(width, height);
+    first.compression() = options.compression == ExrCompression::Piz ? Imf::PIZ_COMPRESSION : Imf::ZIP_COMPRESSION;
+    Imf::addChromaticities(
+        first, Imf::Chromaticities(Imath::V2f(kRec709RedXy[0], kRec709RedXy[1]),
+                                   Imath::V2f(kRec709GreenXy[0], kRec709GreenXy[1]),
+                                   Imath::V2f(kRec709BlueXy[0], kRec709BlueXy[1]),
+                                   Imath::V2f(kD65WhiteXy[0], kD65WhiteXy[1])));
+    // The attributes every part carries (the display window and chromaticities must agree between
+    // parts), before the first part's own.
+    const Imf::Header shared = first;
+    for (const auto& [key, value] : metadata) {
+        if (key.empty() || first.find(key) != first.end())
+            throw std::invalid_argument("writeExr: metadata key \"" + key + "\" is empty or a standard attribute");
+        first.insert(key, Imf::StringAttribute(value));
+    }
+    auto storageOf = [&](const std::string& name) {
+        const auto it = options.storage.find(name);
+        return it == options.storage.end() ? ExrStorage::Float : it->second;
+    };
+    // The parts: the first holds every whole-frame layer, then one per layer in ownParts.
+    std::vector<Imf::Header> headers{first};
+    std::vector<std::vector<const ImageLayer*>> partLayers(1);
+    for (const ImageLayer& layer : layers) {
+        if (!options.ownParts.count(layer.name)) {
+            addLayerChannels(layer, storageOf(layer.name), headers[0]);
+            partLayers[0].push_back(&layer);
             continue;
         }
-        const float* data = layer.rgb.data();
-        if (storage == ExrStorage::FloatHalfPrecision) {
-            std::vector<float>& r = rounded.emplace_back(layer.rgb.size());
-            for (size_t i = 0; i < layer.rgb.size(); ++i) r[i] = toHalfPrecision(layer.rgb[i]);
-            data = r.data();
-        }
-        for (int c = 0; c < 3; ++c) {
-            const std::string name = channelName(layer.name, c);
-            header.channels().insert(name, Imf::Channel(Imf::FLOAT));
-            char* base = const_cast<char*>(reinterpret_cast<const char*>(data + c));
-            frameBuffer.insert(name, Imf::Slice(Imf::FLOAT, base, 3 * sizeof(float), rowFloats * sizeof(float)));
-        }
+        Imf::Header& header = headers.emplace_back(shared);
+        header.dataWindow() = windowBox(layer);
+        header.setName(layer.name);
+        header.setType(Imf::SCANLINEIMAGE);
+        addLayerChannels(layer, storageOf(layer.name), header);
+        partLayers.push_back({&layer});
     }
+    // A part's pixels, converted to their storage when the part is written (one part's conversions
+    // in memory at a time: hundreds of per-ghost parts would otherwise hold a second copy).
+    auto writePart = [&](auto& out, size_t p) {
+        Imf::FrameBuffer frameBuffer;
+        std::vector<std::vector<half>> halves;
+        std::vector<std::vector<float>> rounded;
+        halves.reserve(partLayers[p].size());
+        rounded.reserve(partLayers[p].size());
+        for (const ImageLayer* layer : partLayers[p]) addLayerSlices(*layer, storageOf(layer->name), frameBuffer, halves, rounded);
+        out.setFrameBuffer(frameBuffer);
+        out.writePixels(partLayers[p].front()->height);
+    };
 
     // Compression dominates writing many layers (the per-ghost ones); OpenEXR compresses blocks
     // of scanlines in parallel once given threads, with the same bytes as one thread.
@@ -172,9 +236,18 @@ void writeExr(OutputFiles& outputs, const std::string& path, const std::vector<I
         if (!stream) throw std::runtime_error(std::strerror(errno));
         {
             Imf::StdOFStream exrStream(stream, temporary.c_str());
-            Imf::OutputFile file(exrStream, header);
-            file.setFrameBuffer(frameBuffer);
-            file.writePixels(height);
+            if (headers.size() == 1) {
+                Imf::OutputFile file(exrStream, headers[0]);
+                writePart(file, 0);
+            } else {
+                headers[0].setName("rgba");  // Nuke's name for the main layer's part
+                headers[0].setType(Imf::SCANLINEIMAGE);
+                Imf::MultiPartOutputFile file(exrStream, headers.data(), static_cast<int>(headers.size()));
+                for (size_t p = 0; p < headers.size(); ++p) {
+                    Imf::OutputPart part(file, static_cast<int>(p));
+                    writePart(part, p);
+                }
+            }
         }
         stream.close();
         if (!stream) throw std::runtime_error("error while finishing the file");
@@ -191,60 +264,151 @@ void writeExr(const std::string& path, const std::vector<ImageLayer>& layers,
     outputs.commit();
 }
 
-std::vector<ImageLayer> readExr(const std::string& path) {
+namespace {
+
+// The RGB layers of one part: names with all three of R, G, B (std::map orders the main layer ""
+// first).
+std::vector<std::string> rgbLayerNames(const Imf::Header& header) {
+    std::map<std::string, int> found;
+    const Imf::ChannelList& channels = header.channels();
+    for (auto it = channels.begin(); it != channels.end(); ++it) {
+        const std::string name = it.name();
+        const size_t dot = name.rfind('.');
+        const std::string layer = dot == std::string::npos ? "" : name.substr(0, dot);
+        const std::string suffix = dot == std::string::npos ? name : name.substr(dot + 1);
+        for (int c = 0; c < 3; ++c)
+            if (suffix == kChannelSuffixes[c]) found[layer] |= 1 << c;
+    }
+    std::vector<std::string> names;
+    for (const auto& [name, mask] : found)
+        if (mask == 7) names.push_back(name);
+    return names;
+}
+
+// Reads the named RGB layers of part `p`, over its data window placed relative to `frameOrigin`
+// (the display window's corner).
+std::vector<ImageLayer> readPart(Imf::MultiPartInputFile& file, int p, const std::vector<std::string>& names,
+                                 const Imath::V2i& frameOrigin) {
+    Imf::InputPart part(file, p);
+    const Imath::Box2i window = part.header().dataWindow();
+    const long long width = static_cast<long long>(window.max.x) - window.min.x + 1;
+    const long long height = static_cast<long long>(window.max.y) - window.min.y + 1;
+    if (width <= 0 || height <= 0 || width * height > kMaxExrFramePixels)
+        throw std::runtime_error("a part's data window of " + std::to_string(width) + " × " + std::to_string(height) +
+                                 " pixels (at most " + std::to_string(kMaxExrFramePixels) + ")");
+    std::vector<ImageLayer> layers;
+    Imf::FrameBuffer frameBuffer;
+    const size_t xStride = 3 * sizeof(float), yStride = xStride * static_cast<size_t>(width);
+    layers.reserve(names.size());
+    for (const std::string& name : names) {
+        ImageLayer& layer = layers.emplace_back();
+        layer.name = name;
+        layer.width = static_cast<int>(width);
+        layer.height = static_cast<int>(height);
+        layer.x = window.min.x - frameOrigin.x;
+        layer.y = window.min.y - frameOrigin.y;
+        layer.rgb.assign(3 * static_cast<size_t>(width) * static_cast<size_t>(height), 0.0f);
+        // OpenEXR addresses pixels by absolute (x, y) in the data window.
+        char* origin = reinterpret_cast<char*>(layer.rgb.data()) - static_cast<ptrdiff_t>(window.min.x) * xStride -
+                       static_cast<ptrdiff_t>(window.min.y) * static_cast<ptrdiff_t>(yStride);
+        for (int c = 0; c < 3; ++c)
+            frameBuffer.insert(channelName(name, c), Imf::Slice(Imf::FLOAT, origin + c * sizeof(float), xStride, yStride));
+    }
+    part.setFrameBuffer(frameBuffer);
+    part.readPixels(window.min.y, window.max.y);
+    return layers;
+}
+
+// Opens `path` and calls read(file, frame size, frame origin).
+template <class Read>
+auto withExr(const std::string& path, Read read) {
     std::error_code ec;
     if (!std::filesystem::is_regular_file(path, ec)) throw InputError(path, 0, "no such image file");
     try {
-        Imf::InputFile file(path.c_str());
-        const Imath::Box2i window = file.header().dataWindow();
-        const int width = window.max.x - window.min.x + 1;
-        const int height = window.max.y - window.min.y + 1;
-
-        // Layers with all three of R, G, B; std::map orders the main layer ("") first.
-        std::map<std::string, int> found;
-        const Imf::ChannelList& channels = file.header().channels();
-        for (auto it = channels.begin(); it != channels.end(); ++it) {
-            const std::string name = it.name();
-            const size_t dot = name.rfind('.');
-            const std::string layer = dot == std::string::npos ? "" : name.substr(0, dot);
-            const std::string suffix = dot == std::string::npos ? name : name.substr(dot + 1);
-            for (int c = 0; c < 3; ++c)
-                if (suffix == kChannelSuffixes[c]) found[layer] |= 1 << c;
-        }
-        std::vector<ImageLayer> layers;
-        for (const auto& [name, mask] : found)
-            if (mask == 7) layers.push_back({name, width, height, {}});
-        if (layers.empty()) throw std::runtime_error("no layer with R, G and B channels");
-
-        Imf::FrameBuffer frameBuffer;
-        const size_t xStride = 3 * sizeof(float), yStride = xStride * static_cast<size_t>(width);
-        for (ImageLayer& layer : layers) {
-            layer.rgb.assign(3 * static_cast<size_t>(width) * height, 0.0f);
-            // OpenEXR addresses pixels by absolute (x, y) in the data window.
-            char* origin = reinterpret_cast<char*>(layer.rgb.data()) -
-                           static_cast<ptrdiff_t>(window.min.x) * xStride -
-                           static_cast<ptrdiff_t>(window.min.y) * yStride;
-            for (int c = 0; c < 3; ++c)
-                frameBuffer.insert(channelName(layer.name, c),
-                                   Imf::Slice(Imf::FLOAT, origin + c * sizeof(float), xStride, yStride));
-        }
-        file.setFrameBuffer(frameBuffer);
-        file.readPixels(window.min.y, window.max.y);
-        return layers;
+        Imf::MultiPartInputFile file(path.c_str());
+        const Imath::Box2i display = file.header(0).displayWindow();
+        const long long width = static_cast<long long>(display.max.x) - display.min.x + 1;
+        const long long height = static_cast<long long>(display.max.y) - display.min.y + 1;
+        if (width <= 0 || height <= 0 || width * height > kMaxExrFramePixels)
+            throw std::runtime_error("a frame (display window) of " + std::to_string(width) + " × " +
+                                     std::to_string(height) + " pixels (at most " + std::to_string(kMaxExrFramePixels) + ")");
+        return read(file, static_cast<int>(width), static_cast<int>(height), display.min);
+    } catch (const InputError&) {
+        throw;
     } catch (const std::exception& e) {
         throw InputError(path, 0, std::string("cannot read OpenEXR image: ") + e.what());
     }
 }
 
+}  // namespace
+
+ExrImage readExrImage(const std::string& path) {
+    return withExr(path, [&](Imf::MultiPartInputFile& file, int width, int height, const Imath::V2i& origin) {
+        ExrImage image{width, height, {}, {}};
+        std::set<std::string> seen;
+        for (int p = 0; p < file.parts(); ++p) {
+            if (file.header(p).hasType() && !Imf::isImage(file.header(p).type())) continue;  // deep parts
+            const std::vector<std::string> names = rgbLayerNames(file.header(p));
+            for (const std::string& name : names)
+                if (!seen.insert(name).second)
+                    throw std::runtime_error("the layer \"" + name + "\" is in two parts");
+            if (names.empty()) continue;
+            if (p > 0) image.ownParts.insert(names.begin(), names.end());
+            for (ImageLayer& layer : readPart(file, p, names, origin)) image.layers.push_back(std::move(layer));
+        }
+        if (image.layers.empty()) throw std::runtime_error("no layer with R, G and B channels");
+        // The main layer first, then the others by name, wherever their parts are.
+        std::stable_sort(image.layers.begin(), image.layers.end(),
+                         [](const ImageLayer& a, const ImageLayer& b) { return a.name < b.name; });
+        return image;
+    });
+}
+
+std::vector<ImageLayer> readExr(const std::string& path) {
+    ExrImage image = readExrImage(path);
+    std::vector<ImageLayer> layers;
+    layers.reserve(image.layers.size());
+    for (ImageLayer& layer : image.layers) {
+        const bool whole = layer.x == 0 && layer.y == 0 && layer.width == image.width && layer.height == image.height;
+        layers.push_back(whole ? std::move(layer) : expandToFrame(layer, image.width, image.height));
+        std::vector<float>().swap(layer.rgb);
+    }
+    return layers;
+}
+
 ImageLayer readExrLayer(const std::string& path, const std::string& name) {
-    std::vector<ImageLayer> layers = readExr(path);
-    for (ImageLayer& layer : layers)
-        if (layer.name == name) return std::move(layer);
-    std::string available;
-    for (const ImageLayer& layer : layers)
-        available += (available.empty() ? "" : ", ") + (layer.name.empty() ? std::string("(main)") : layer.name);
-    const std::string wanted = name.empty() ? std::string("no main RGB layer (R, G, B)") : "no layer \"" + name + "\"";
-    throw InputError(path, 0, wanted + "; layers in the file: " + available);
+    return withExr(path, [&](Imf::MultiPartInputFile& file, int width, int height, const Imath::V2i& origin) {
+        std::vector<std::string> available;
+        for (int p = 0; p < file.parts(); ++p) {
+            if (file.header(p).hasType() && !Imf::isImage(file.header(p).type())) continue;
+            for (const std::string& layer : rgbLayerNames(file.header(p))) {
+                if (layer == name) {
+                    const ImageLayer found = std::move(readPart(file, p, {name}, origin).front());
+                    return expandToFrame(found, width, height);
+                }
+                available.push_back(layer);
+            }
+        }
+        std::sort(available.begin(), available.end());
+        std::string list;
+        for (const std::string& layer : available)
+            list += (list.empty() ? "" : ", ") + (layer.empty() ? std::string("(main)") : layer);
+        const std::string wanted = name.empty() ? std::string("no main RGB layer (R, G, B)") : "no layer \"" + name + "\"";
+        throw InputError(path, 0, wanted + "; layers in the file: " + list);
+    });
+}
+
+ImageLayer expandToFrame(const ImageLayer& layer, int frameWidth, int frameHeight) {
+    ImageLayer whole{layer.name, frameWidth, frameHeight,
+                     std::vector<float>(3 * static_cast<size_t>(frameWidth) * static_cast<size_t>(frameHeight), 0.0f)};
+    const int x0 = std::max(layer.x, 0), x1 = std::min(layer.x + layer.width, frameWidth);
+    const int y0 = std::max(layer.y, 0), y1 = std::min(layer.y + layer.height, frameHeight);
+    for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x)
+            for (int c = 0; c < 3; ++c)
+                whole.rgb[(static_cast<size_t>(y) * frameWidth + x) * 3 + c] =
+                    layer.rgb[(static_cast<size_t>(y - layer.y) * layer.width + (x - layer.x)) * 3 + c];
+    return whole;
 }
 
 glm::dvec3 displayEncode(const glm::dvec3& linearRgb, double exposure) {
@@ -318,10 +482,19 @@ double autoExposure(const ImageLayer& image) {
     return displayTarget / (1.0 - displayTarget) / lit[index];
 }
 
-ImageLayer rgbLayerFromXyz(const std::string& name, const std::vector<float>& xyz, int width, int height) {
-    ImageLayer layer{name, width, height, std::vector<float>(xyz.size())};
+ImageLayer rgbLayerFromXyz(const std::string& name, const std::vector<float>& xyz, int width, int height, int x, int y) {
+    ImageLayer layer{name, width, height, std::vector<float>(xyz.size()), x, y};
     for (size_t i = 0; i < xyz.size(); i += 3) {
         const glm::dvec3 rgb = xyzToLinearSrgb({xyz[i], xyz[i + 1], xyz[i + 2]});
+        for (int c = 0; c < 3; ++c) layer.rgb[i + c] = static_cast<float>(rgb[c]);
+    }
+    return layer;
+}
+
+ImageLayer rgbLayerFromXyz(const std::string& name, std::vector<float>&& xyz, int width, int height, int x, int y) {
+    ImageLayer layer{name, width, height, std::move(xyz), x, y};
+    for (size_t i = 0; i < layer.rgb.size(); i += 3) {
+        const glm::dvec3 rgb = xyzToLinearSrgb({layer.rgb[i], layer.rgb[i + 1], layer.rgb[i + 2]});
         for (int c = 0; c < 3; ++c) layer.rgb[i + c] = static_cast<float>(rgb[c]);
     }
     return layer;

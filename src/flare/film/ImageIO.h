@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <map>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -18,14 +19,27 @@ namespace flare {
 
 // One RGB image: interleaved linear Rec.709 RGB (sRGB primaries, D65 white), row-major, first row
 // at the top. Name "" is the main image; other names become EXR layers ("ghosts" → ghosts.R, ...).
+// A layer may hold only a window of its frame (a ghost's footprint: the bounding box of the pixels
+// it reaches): its width × height pixels start at column x, row y of the frame, and every pixel
+// outside the window is zero. A whole-frame layer has x = y = 0 and the frame's size.
 struct ImageLayer {
     std::string name;
-    int width = 0, height = 0;
+    int width = 0, height = 0;  // of the window
     std::vector<float> rgb;
+    int x = 0, y = 0;  // the window's top-left pixel in the frame
 };
 
-// A layer of linear Rec.709 RGB from interleaved CIE XYZ (what the preview and the film hold).
-ImageLayer rgbLayerFromXyz(const std::string& name, const std::vector<float>& xyz, int width, int height);
+// A layer of linear Rec.709 RGB from interleaved CIE XYZ (what the preview and the film hold), at
+// (x, y) in its frame.
+ImageLayer rgbLayerFromXyz(const std::string& name, const std::vector<float>& xyz, int width, int height, int x = 0,
+                           int y = 0);
+// The same converted in place (no second copy).
+ImageLayer rgbLayerFromXyz(const std::string& name, std::vector<float>&& xyz, int width, int height, int x = 0,
+                           int y = 0);
+
+// The layer over the whole frame of frameWidth × frameHeight pixels (zeros outside its window; the
+// parts of the window outside the frame dropped), at (0, 0).
+ImageLayer expandToFrame(const ImageLayer& layer, int frameWidth, int frameHeight);
 
 // How a layer's channels are stored in an EXR.
 enum class ExrStorage : std::uint8_t {
@@ -53,16 +67,25 @@ enum class ExrCompression : std::uint8_t { Zip, Piz };
 struct ExrWriteOptions {
     std::map<std::string, ExrStorage> storage;  // by layer name; layers not named are Float
     ExrCompression compression = ExrCompression::Zip;
+    // Layers written each as a part of its own (by name), with its window as the part's data
+    // window: a multi-part file (OpenEXR 2+), whose first part holds the other layers.
+    std::set<std::string> ownParts;
 };
 
-// Writes the layers (all of one size) as a losslessly compressed EXR, 32-bit float unless options say
-// otherwise, with the standard `chromaticities` attribute (Rec.709 primaries, D65 white) and each
-// metadata pair as a string attribute. Throws std::logic_error for malformed input (mismatched
-// sizes, duplicate layer names, a metadata key that is a standard attribute, any NaN or infinity,
-// a value beyond half's range in a Half layer: programming errors) and std::runtime_error naming
-// `path` when the file cannot be written (InputError from OutputFiles::add when its folder is not
-// writable); nothing is left behind. A symbolic link is followed, a device or FIFO written
-// through (OutputFiles).
+// Writes the layers as a losslessly compressed EXR, 32-bit float unless options say otherwise,
+// with the standard `chromaticities` attribute (Rec.709 primaries, D65 white) and each metadata
+// pair as a string attribute. The first layer is the frame (whole, at (0, 0)); the layers not in
+// options.ownParts must be whole frames too, and are written together as the first part (the only
+// one without ownParts: a single-part file, as a reader that knows no parts expects). Each layer in
+// ownParts is a part of its own named after the layer, its data window the layer's window, its
+// display window the frame, channels `name.R`, `name.G`, `name.B` as in the first part (so readers
+// that merge the parts by channel name, like Nuke's, keep them apart). Throws std::logic_error for
+// malformed input (a window outside the frame or a windowed layer in the first part, duplicate
+// layer names, a metadata key that is a standard attribute, any NaN or infinity, a value beyond
+// half's range in a Half layer: programming errors) and std::runtime_error naming `path` when the
+// file cannot be written (InputError from OutputFiles::add when its folder is not writable);
+// nothing is left behind. A symbolic link is followed, a device or FIFO written through
+// (OutputFiles).
 void writeExr(const std::string& path, const std::vector<ImageLayer>& layers,
               const std::vector<std::pair<std::string, std::string>>& metadata,
               const ExrWriteOptions& options = {});
@@ -71,13 +94,25 @@ void writeExr(OutputFiles& outputs, const std::string& path, const std::vector<I
               const std::vector<std::pair<std::string, std::string>>& metadata,
               const ExrWriteOptions& options = {});
 
-// Every layer of an EXR that has R, G and B channels, the main one (if any) first, then the others
-// by name. Half or float channels are read as float. A missing, unreadable or corrupt file throws
-// InputError(path, 0, problem).
+// An EXR as stored: its frame (the first part's display window) and every layer that has R, G and B
+// channels, in any part, each over its own window (its part's data window, placed relative to the
+// display window's corner): the first part's main layer (if any) first, then the others by name.
+// Half or float channels are read as float. A missing, unreadable or corrupt file, a layer in two
+// parts, or a frame beyond kMaxExrFramePixels throws InputError(path, 0, problem).
+struct ExrImage {
+    int width = 0, height = 0;  // the frame
+    std::vector<ImageLayer> layers;
+    std::set<std::string> ownParts;  // the layers read from parts after the first (writeExr's ownParts)
+};
+constexpr long long kMaxExrFramePixels = 1LL << 28;  // 16384²: the largest scene resolution
+ExrImage readExrImage(const std::string& path);
+
+// Every layer of readExrImage over the whole frame (expandToFrame): a frame's memory per layer.
 std::vector<ImageLayer> readExr(const std::string& path);
 
-// The layer `name` of an EXR ("" = the main image). A missing layer (a typo, or a file written
-// without --layers) throws InputError(path, 0, problem) listing the layers the file does have.
+// The layer `name` of an EXR ("" = the main image) over the whole frame; only its part is read. A
+// missing layer (a typo, or a file written without --layers) throws InputError(path, 0, problem)
+// listing the layers the file does have.
 ImageLayer readExrLayer(const std::string& path, const std::string& name);
 
 // Display encoding for the PNG preview of a linear Rec.709 value: multiply by `exposure`, apply

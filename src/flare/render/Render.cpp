@@ -65,16 +65,46 @@ void addLightTallies(int lightIndex, const renderer::LightState& light, std::vec
     }
 }
 
-// Per-ghost layers: one per label of a kept ghost (or chain), shared by the lights that have it.
-void addGhostLayers(renderer::LightState& light, std::unordered_map<std::string, int>& layerOfLabel,
-                    std::vector<std::string>& layerNames) {
-    const GhostReport& report = light.report;
-    for (size_t g = 0; g < report.ghosts.size(); ++g) {
-        if (report.ghosts[g].pruned) continue;
-        const std::string label = report.ghosts[g].path.label();
-        auto [it, inserted] = layerOfLabel.try_emplace(label, static_cast<int>(layerNames.size()));
-        if (inserted) layerNames.push_back(label);
-        light.ghostLayer[g + 1] = it->second;
+// Per-ghost layers: one per label of a kept ghost (or chain), shared by the lights that have it,
+// for the labels `selection` keeps by their power (summed over the lights); the order-2 ghosts
+// left out share kOtherGhostsLayer, a chain left out has no layer (RenderOptions::ghostLayers).
+void addGhostLayers(std::vector<renderer::LightState>& lights, const std::vector<LightPlan>& plans,
+                    const LayerSelection& selection, std::vector<std::string>& layerNames) {
+    std::vector<std::string> labels;
+    std::vector<double> power;
+    std::unordered_map<std::string, size_t> indexOfLabel;
+    for (size_t l = 0; l < lights.size(); ++l) {
+        const GhostReport& report = lights[l].report;
+        for (size_t g = 0; g < report.ghosts.size(); ++g) {
+            if (report.ghosts[g].pruned) continue;
+            const auto [it, inserted] = indexOfLabel.try_emplace(report.ghosts[g].path.label(), labels.size());
+            if (inserted) {
+                labels.push_back(it->first);
+                power.push_back(0.0);
+            }
+            power[it->second] += lights[l].pathPowerFraction[g + 1] * plans[l].enteringPowerW;
+        }
+    }
+    const std::vector<bool> kept = keptLayers(power, labels, selection);
+    std::vector<int> layerOfLabel(labels.size(), -1);
+    int otherLayer = -1;
+    for (size_t i = 0; i < labels.size(); ++i) {
+        if (kept[i]) {
+            layerOfLabel[i] = static_cast<int>(layerNames.size());
+            layerNames.push_back(labels[i]);
+        }
+    }
+    for (renderer::LightState& light : lights) {
+        const GhostReport& report = light.report;
+        for (size_t g = 0; g < report.ghosts.size(); ++g) {
+            if (report.ghosts[g].pruned) continue;
+            const size_t i = indexOfLabel.at(report.ghosts[g].path.label());
+            if (!kept[i] && report.ghosts[g].path.reflections.size() == 2 && otherLayer < 0) {
+                otherLayer = static_cast<int>(layerNames.size());
+                layerNames.push_back(kOtherGhostsLayer);
+            }
+            light.ghostLayer[g + 1] = kept[i] ? layerOfLabel[i] : report.ghosts[g].path.reflections.size() == 2 ? otherLayer : -1;
+        }
     }
 }
 
@@ -92,17 +122,16 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
         tracer_.setStrayLightSampling({.weighted = true, .connectSensor = true});
     const bool anyScattering = interiorScatters(options.materials) || tracer_.hasContamination() || tracer_.hasMedia();
 
-    std::unordered_map<std::string, int> ghostLayerOfLabel;
     std::vector<double> lightWeight;
     for (const LightSpec& spec : lights) {
         renderer::PlannedLight planned = renderer::planLight(lens, spec, options, anyScattering);
         planned.state.tallyOffset = static_cast<int>(tallies_.size());
         addLightTallies(static_cast<int>(lightPlans_.size()), planned.state, tallies_);
-        if (options.perGhostLayers) addGhostLayers(planned.state, ghostLayerOfLabel, layerNames_);
         lightWeight.push_back(planned.plan.skipped ? 0.0 : planned.plan.enteringPowerW);
         lightStates_.push_back(std::move(planned.state));
         lightPlans_.push_back(std::move(planned.plan));
     }
+    if (options.perGhostLayers) addGhostLayers(lightStates_, lightPlans_, options.ghostLayers, layerNames_);
     for (PathTally::Kind kind : {PathTally::Kind::Direct, PathTally::Kind::Ghost, PathTally::Kind::Higher,
                                  PathTally::Kind::Scatter}) {
         PathTally t;
@@ -165,6 +194,9 @@ void Renderer::setUpFilm() {
             if (layer >= 0)
                 film_.setLayerKernel(layer, FilmSettings::Kernel::Adaptive, options_.smoothNeighbours, maxRadiusPx, true);
     }
+    // Per-ghost layers are only read out: single precision halves their memory (Film.h).
+    for (int l = kFixedLayerCount; l < static_cast<int>(layerNames_.size()); ++l)
+        if (layerNames_[l].starts_with("ghost_")) film_.setLayerSinglePrecision(l);
     for (int l = 0; l < kFixedLayerCount; ++l) film_.addVarianceGroup({l});
     film_.addVarianceGroup({kLayerGhost, kLayerHigher, kLayerScatter});
     // Beams continue their sequences from pass to pass: the error is estimated from replicates.
@@ -342,6 +374,16 @@ void Renderer::addPassTallies(const std::vector<renderer::BeamJob>& beamJobs, in
 
 std::vector<float> Renderer::layerXyz(int layer) const {
     return film_.irradianceXyz(layer, static_cast<double>(statistics_.passes) * options_.photonsPerPass());
+}
+
+FilmWindow Renderer::layerXyzFootprint(int layer) const {
+    return film_.irradianceXyzFootprint(layer, static_cast<double>(statistics_.passes) * options_.photonsPerPass());
+}
+
+FilmWindow Renderer::takeLayerXyzFootprint(int layer) {
+    FilmWindow window = layerXyzFootprint(layer);
+    film_.clearLayer(layer);
+    return window;
 }
 
 double Renderer::tallyPowerW(const PathTally& tally) const {

@@ -53,6 +53,7 @@
 #include "flare/core/OutputFiles.h"
 #include "flare/core/Replicates.h"
 #include "flare/film/Film.h"
+#include "flare/film/LayerSelection.h"
 #include "flare/ghosts/GhostAnalysis.h"
 #include "flare/optics/IndexTable.h"
 #include "flare/photons/Light.h"
@@ -68,6 +69,11 @@ struct RenderOptions {
     std::uint64_t seed = 1;
     int maxBounces = -1;  // −1: unbounded
     bool perGhostLayers = false;
+    // With perGhostLayers: which ghosts get a layer of their own, by their estimated power (each
+    // path's power over its light's spectrum, summed over the lights that have it). The order-2
+    // ghosts left out share one layer, kOtherGhostsLayer; an order-4 chain left out has none (its
+    // light is in `higher`).
+    LayerSelection ghostLayers;
     FilmSettings film;    // size from the scene; kernel choice
     InteriorMaterials materials;
     std::vector<SurfaceContamination> contamination;  // per surface, or empty (clean)
@@ -255,6 +261,12 @@ public:
 
     // Irradiance (W/m², XYZ) of a film layer after the passes so far.
     std::vector<float> layerXyz(int layer) const;
+    // The same over the layer's footprint (Film::irradianceXyzFootprint): a per-ghost layer's
+    // memory follows the pixels its ghost reaches, not the frame.
+    FilmWindow layerXyzFootprint(int layer) const;
+    // The same, freeing the layer's pixels (it reads as zero afterwards): for taking per-ghost
+    // layers out one at a time once the passes are done.
+    FilmWindow takeLayerXyzFootprint(int layer);
     // Estimated mean Y power (W) on the sensor of a tally and its standard error, from the spread
     // between its batches (independent, identically distributed estimates) and between its beams'
     // replicates.

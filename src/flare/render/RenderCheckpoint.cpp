@@ -50,6 +50,8 @@ std::uint64_t Renderer::fingerprint() const {
                               options_.materials.irisAlbedo, lens_->sensorZMm(), lens_->iris().radiusMm()};
     mix(doubles, sizeof doubles);
     mix(lens_->name().data(), lens_->name().size());
+    // Which ghosts have layers of their own (--layers top:N or share:F keep some).
+    for (const std::string& name : layerNames_) mix(name.data(), name.size() + 1);
     return hash;
 }
 

@@ -155,6 +155,8 @@ void planStrategies(const LensSystem& lens, const Spectrum& spectrum, const Rend
         state.strategy[slot] = PathStrategy::Beams;
     });
     state.beamRate = beamRates(state, beamWeight, spectralPower, options.beamsPerPass);
+    for (int slot = 1; slot < state.slots; ++slot)
+        state.pathPowerFraction[slot] = spectralPower[slot] > 0.0 ? spectralPower[slot] : report.ghosts[slot - 1].powerFraction;
 }
 
 }  // namespace
@@ -166,7 +168,7 @@ PlannedLight planLight(const LensSystem& lens, const LightSpec& spec, const Rend
     // light for a point or disk (its centre), so that masks and beams see its live regions.
     GhostReport analysed = analyseGhosts(lens, sampler.grid(), options.analysis);
     PlannedLight planned{LightState{std::move(sampler), WavelengthSampler(spectrum), std::move(analysed),
-                                    {}, {}, {}, {}, {}, {}, {}, 0, 0},
+                                    {}, {}, {}, {}, {}, {}, {}, {}, 0, 0},
                          LightPlan{}};
     LightState& state = planned.state;
     LightPlan& plan = planned.plan;
@@ -205,6 +207,8 @@ PlannedLight planLight(const LensSystem& lens, const LightSpec& spec, const Rend
         if (report.ghosts[slot - 1].path.reflections.size() > 2) state.layer[slot] = kLayerHigher;
     state.beamWavelengths.resize(state.slots);
     state.beamRate.assign(state.slots, 0.0);
+    state.pathPowerFraction.assign(state.slots, 0.0);
+    for (int slot = 1; slot < state.slots; ++slot) state.pathPowerFraction[slot] = report.ghosts[slot - 1].powerFraction;
     if (options.mode != RenderOptions::Mode::Naive && !plan.skipped) {
         // Beams are splatted with the fixed 1-px tent: other kernels leave the ghosts to photons.
         const bool beamLight = options.mode == RenderOptions::Mode::Guided &&

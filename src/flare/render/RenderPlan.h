@@ -40,6 +40,9 @@ struct LightState {
     // probability of its fraction, and weights every beam by one over the expectation).
     std::vector<std::unique_ptr<WavelengthSampler>> beamWavelengths;
     std::vector<double> beamRate;
+    // Per slot: the path's power fraction over the light's spectrum (its beam probe's), or the
+    // analysis's at its one wavelength where no probe ran; what per-ghost layers are ranked by.
+    std::vector<double> pathPowerFraction;
     int tallyOffset = 0;                    // tallies: offset + slot, then higher, then scatter
     int slots = 0;
 

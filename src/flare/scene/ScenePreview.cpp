@@ -7,6 +7,9 @@
 #include <numbers>
 
 #include <glm/geometric.hpp>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include "flare/core/Spectrum.h"
 #include "flare/ghosts/GhostAnalysis.h"
@@ -17,6 +20,17 @@
 namespace flare {
 
 namespace {
+
+// The film's tiles are small allocations, whose memory the allocator keeps for later small ones when
+// they are freed; the footprints taken in their place are large ones, mapped afresh. Without
+// handing the freed tiles back to the system, the preview would hold both (glibc's malloc_trim;
+// elsewhere the memory is reused as the allocator sees fit).
+constexpr size_t kTrimBytes = size_t{64} << 20;
+void returnFreedMemory() {
+#if defined(__GLIBC__)
+    malloc_trim(0);
+#endif
+}
 
 void add(std::vector<float>& into, const std::vector<float>& from) {
     if (into.empty()) into.assign(from.size(), 0.0f);
@@ -46,6 +60,7 @@ ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGh
     // The final render's plan and beams, as `flare render` makes them with the same seed.
     SceneRenderOverrides overrides;
     overrides.perGhostLayers = perGhostLayers;
+    overrides.ghostLayers = budget.ghostLayers;
     if (budget.seed) overrides.seed = *budget.seed;
     RenderOptions options = sceneRenderOptions(scene, lens, overrides);
     options.tracePhotons = false;
@@ -78,10 +93,18 @@ ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGh
         std::set<std::string> chains;
         for (const PathTally& t : renderer.tallies())
             if (t.kind == PathTally::Kind::Ghost && t.path.reflections.size() > 2) chains.insert(t.path.label());
+        // Each taken over its footprint and freed in turn: one copy of each at a time.
         const std::vector<std::string>& names = renderer.layerNames();
+        size_t freedBytes = 0;
         for (int l = kFixedLayerCount; l < static_cast<int>(names.size()); ++l) {
             if (!names[l].starts_with("ghost_") || (!budget.higher && chains.contains(names[l]))) continue;
-            result.perGhost[names[l]] = renderer.layerXyz(l);
+            freedBytes += renderer.film().layerBytes(l);
+            FilmWindow footprint = renderer.takeLayerXyzFootprint(l);
+            if (!footprint.empty()) result.perGhost[names[l]] = std::move(footprint);
+            if (freedBytes > kTrimBytes) {
+                returnFreedMemory();
+                freedBytes = 0;
+            }
         }
     }
     // Each light's own image: the mesh preview of its direct path alone.
@@ -118,10 +141,12 @@ std::vector<ImageLayer> previewLayers(ScenePreview& preview, bool withLayers) {
         if (preview.starburst) layers.push_back(rgbLayerFromXyz("starburst", preview.starburst->xyz, w, h));
         layers.push_back(rgbLayerFromXyz("ghost", preview.ghosts, w, h));
         if (!preview.higher.empty()) layers.push_back(rgbLayerFromXyz("higher", preview.higher, w, h));
-        for (auto& [name, xyz] : preview.perGhost) {
-            layers.push_back(rgbLayerFromXyz(name, xyz, w, h));
-            std::vector<float>().swap(xyz);
-        }
+        // By label, the layer of the ghosts left out last.
+        for (int other = 0; other < 2; ++other)
+            for (auto& [name, window] : preview.perGhost) {
+                if ((name == kOtherGhostsLayer) != (other == 1)) continue;
+                layers.push_back(rgbLayerFromXyz(name, std::move(window.xyz), window.width, window.height, window.x, window.y));
+            }
     }
     return layers;
 }

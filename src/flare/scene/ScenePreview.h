@@ -14,7 +14,9 @@
 #include <string>
 #include <vector>
 
+#include "flare/film/Film.h"
 #include "flare/film/ImageIO.h"
+#include "flare/film/LayerSelection.h"
 #include "flare/ghosts/Preview.h"
 #include "flare/optics/LensSystem.h"
 #include "flare/photons/Light.h"
@@ -38,13 +40,16 @@ struct PreviewBudget {
     double timeS = 0.0;
     std::optional<std::uint64_t> seed;  // default: the scene's render.seed
     bool higher = false;                // add the guided order-4 chains (the `higher` layer)
+    LayerSelection ghostLayers;         // with per-ghost layers: which ghosts keep one (RenderOptions)
 };
 
 // Sensor irradiance in CIE XYZ (XyzLayer's layout), summed over the scene's lights.
 struct ScenePreview {
     int widthPx = 0, heightPx = 0;
     std::vector<float> direct, ghosts, higher;
-    std::map<std::string, std::vector<float>> perGhost;  // with per-ghost layers: by path label
+    // With per-ghost layers: by path label, each over its footprint (the bounding box of the
+    // pixels it reaches; a ghost that reaches none has no layer), not the frame.
+    std::map<std::string, FilmWindow> perGhost;
     // With the scene's render.diffraction: the direct image diffracted (SceneStarburst.h).
     std::optional<StarburstImage> starburst;
     long tracedRays = 0;
@@ -65,7 +70,8 @@ ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGh
 // The preview's images in linear Rec.709 RGB, as `flare preview` writes them: the main image ""
 // (the starburst, or the direct image without diffraction, + ghosts, + higher when rendered), then
 // with `withLayers` "direct", "starburst" (with diffraction), "ghost", "higher" (when rendered) and
-// the per-ghost layers by label.
+// the per-ghost layers by label (with kOtherGhostsLayer last when PreviewBudget::ghostLayers left
+// ghosts out), each over its footprint (ImageLayer's window).
 // Each per-ghost XYZ buffer is released once converted (one copy at a time).
 std::vector<ImageLayer> previewLayers(ScenePreview& preview, bool withLayers);
 

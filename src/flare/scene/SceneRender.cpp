@@ -15,6 +15,7 @@ RenderOptions sceneRenderOptions(const Scene& scene, const LensSystem& lens, con
     options.beamsPerPass = overrides.beamsPerPass.value_or(scene.render.beamsPerPass);
     options.beamReplicates = overrides.beamReplicates;
     options.perGhostLayers = overrides.perGhostLayers;
+    options.ghostLayers = overrides.ghostLayers;
     // The ghosts are the order-2 paths; a scene's ghost_order 4 asks for the order-4 chains to be
     // guided as well (in the `higher` layer).
     options.analysis.order = 2;
@@ -72,6 +73,14 @@ std::vector<ImageLayer> renderLayers(const Renderer& renderer, const StarburstIm
     std::vector<float> total(static_cast<size_t>(w) * h * 3, 0.0f);
     std::vector<ImageLayer> layers{ImageLayer{}};
     for (int l = 0; l < static_cast<int>(renderer.layerNames().size()); ++l) {
+        const std::string& name = renderer.layerNames()[l];
+        if (l >= kFixedLayerCount && name.starts_with("ghost_")) {
+            // Per-ghost layers over their footprints.
+            const FilmWindow window = renderer.layerXyzFootprint(l);
+            if (!window.empty())
+                layers.push_back(rgbLayerFromXyz(name, window.xyz, window.width, window.height, window.x, window.y));
+            continue;
+        }
         const std::vector<float> xyz = renderer.layerXyz(l);
         const std::vector<float>& summed = l == kLayerDirect && starburst ? starburst->xyz : xyz;
         if (l < kFixedLayerCount)

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "flare/film/ImageIO.h"
+#include "flare/film/LayerSelection.h"
 #include "flare/optics/LensSystem.h"
 #include "flare/render/Render.h"
 #include "flare/scene/Scene.h"
@@ -22,6 +23,7 @@ struct SceneRenderOverrides {
     std::optional<int> beamsPerPass;
     int beamReplicates = 2;         // RenderOptions::beamReplicates
     bool perGhostLayers = false;
+    LayerSelection ghostLayers;  // with perGhostLayers: which ghosts keep a layer (RenderOptions)
     // Auto guides the order-4 chains when the scene's ghost_order is 4, else leaves the choice to
     // the lens's reflectances (RenderOptions::HigherOrder::Auto).
     RenderOptions::HigherOrder higherOrder = RenderOptions::HigherOrder::Auto;
@@ -66,6 +68,8 @@ struct RenderStopRule {
 // (the sum of the fixed layers, the starburst in place of the direct layer when given), then
 // every film layer by name (direct, ghost, higher, scatter, then per-ghost and per-scatter-source
 // layers when asked for), then "starburst" when given, then "variance" when the film estimates it.
+// The per-ghost layers (those RenderOptions::ghostLayers kept, and kOtherGhostsLayer) are each over
+// its footprint (ImageLayer's window; a ghost that reached no pixel has none).
 std::vector<ImageLayer> renderLayers(const Renderer& renderer, const StarburstImage* starburst = nullptr);
 
 }  // namespace flare
