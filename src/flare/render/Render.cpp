@@ -53,6 +53,7 @@ void addLightTallies(int lightIndex, const renderer::LightState& light, std::vec
         t.light = lightIndex;
         if (slot > 0) t.path = estimate.path;
         t.analysedPowerFraction = estimate.powerFraction;
+        t.plannedPowerFraction = light.pathPowerFraction[slot];
         t.strategy = light.strategy[slot];
         t.guided = light.strategy[slot] != PathStrategy::Unguided;
         tallies.push_back(t);

@@ -170,6 +170,9 @@ struct PathTally {
     int light = 0;
     GhostPath path;            // Direct and Ghost
     double analysedPowerFraction = 0.0;  // the ghost analysis's estimate (0 for Higher/Scatter)
+    // Over the light's spectrum, as planned (the beam probe's; else the analysis's): what
+    // RenderOptions::ghostLayers ranks the ghosts by (0 for Direct, Higher, Scatter).
+    double plannedPowerFraction = 0.0;
     PathStrategy strategy = PathStrategy::Unguided;
     bool guided = false;       // owned by a guided strategy (photons or beams) inside its mask
     double sumMeans = 0.0, sumSquaredMeans = 0.0;          // over batches: per-photon mean Y power (W)

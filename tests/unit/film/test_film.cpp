@@ -727,6 +727,76 @@ TEST(Film, LoadRejectsAnInconsistentCheckpoint) {
     EXPECT_EQ(restored.varianceRgb().size(), static_cast<size_t>(32 * 32 * 3));
 }
 
+// A layer's footprint is the bounding box of its non-zero pixels, with irradianceXyz's values there
+// and zeros outside; its tiles are allocated only where light landed, in proportion to the
+// footprint, not the frame.
+TEST(Film, FootprintIsTheBoundingBoxOfTheLitPixels) {
+    const FilmSettings s = filmSettings(256, 160);
+    Film film(s, 3);
+    film.setLayerSinglePrecision(2);
+    // Layer 1 (double) and layer 2 (float): the same splats, at pixel centres and between them
+    // (the tent shares a splat among up to four pixels), in a box from (40, 70) to (71, 90).
+    for (int pass = 0; pass < 3; ++pass) {
+        for (const auto& [px, py] : std::vector<std::pair<double, double>>{{40.5, 70.5}, {71.5, 90.5}, {55.25, 80.75}, {60.0, 72.0}})
+            for (int layer : {1, 2}) film.splat(layer, sensorAt(s, px, py), {1.0 / 3.0, 2.0 / 7.0, 0.1 * (pass + 1)}, false);
+        film.endPass(1000);
+    }
+    const double photons = 3000.0;
+    EXPECT_TRUE(film.irradianceXyzFootprint(0, photons).empty());
+    EXPECT_EQ(film.layerBytes(0), 0u);
+    for (int layer : {1, 2}) {
+        const std::vector<float> full = film.irradianceXyz(layer, photons);
+        const FilmWindow window = film.irradianceXyzFootprint(layer, photons);
+        EXPECT_EQ(window.x, 40);
+        EXPECT_EQ(window.y, 70);
+        EXPECT_EQ(window.width, 32);
+        EXPECT_EQ(window.height, 21);
+        for (int y = 0; y < s.heightPx; ++y)
+            for (int x = 0; x < s.widthPx; ++x)
+                for (int c = 0; c < 3; ++c) {
+                    const float value = full[(static_cast<size_t>(y) * s.widthPx + x) * 3 + c];
+                    const bool inside = x >= window.x && x < window.x + window.width && y >= window.y &&
+                                        y < window.y + window.height;
+                    if (!inside) ASSERT_EQ(value, 0.0f);
+                    else ASSERT_EQ(value, window.xyz[(static_cast<size_t>(y - window.y) * window.width + (x - window.x)) * 3 + c]);
+                }
+        // Tiles (32 × 32) touched: columns 32–63 and 64–95, rows 64–95: two tiles of 40 (256 × 160).
+        EXPECT_EQ(film.layerBytes(layer), 2u * 32 * 32 * 3 * (layer == 2 ? sizeof(float) : sizeof(double)));
+    }
+    // Single precision: each pixel within the rounding of its few additions (3 passes × at most
+    // 4 splats, each adding one float rounding, 2⁻²⁴ of the running sum) of the double layer's.
+    const std::vector<float> exact = film.irradianceXyz(1, photons), single = film.irradianceXyz(2, photons);
+    for (size_t i = 0; i < exact.size(); ++i)
+        ASSERT_NEAR(single[i], exact[i], (12 + 1) * std::ldexp(std::abs(exact[i]), -24)) << i;
+    film.clearLayer(2);
+    EXPECT_TRUE(film.irradianceXyzFootprint(2, photons).empty());
+    EXPECT_EQ(film.layerBytes(2), 0u);
+    EXPECT_THROW(film.setLayerSinglePrecision(0), std::logic_error);  // after the first pass
+}
+
+// A checkpoint keeps single-precision layers as they are, and refuses a film whose layers differ in
+// precision.
+TEST(Film, SinglePrecisionLayersSurviveACheckpoint) {
+    const FilmSettings s = filmSettings(64, 64);
+    Film film(s, 2);
+    film.setLayerSinglePrecision(1);
+    for (int pass = 0; pass < 2; ++pass) {
+        film.splat(1, sensorAt(s, 20.3, 30.7), {1.0, 1.0, 1.0}, false);
+        film.splat(0, sensorAt(s, 20.3, 30.7), {1.0, 1.0, 1.0});
+        film.endPass(10);
+    }
+    const std::string bytes = saved(film);
+    Film same(s, 2);
+    same.setLayerSinglePrecision(1);
+    std::istringstream in(bytes);
+    same.load(in);
+    EXPECT_EQ(same.irradianceXyz(1, 20.0), film.irradianceXyz(1, 20.0));
+    EXPECT_EQ(same.irradianceXyz(0, 20.0), film.irradianceXyz(0, 20.0));
+    Film doubles(s, 2);
+    std::istringstream again(bytes);
+    EXPECT_THROW(doubles.load(again), std::runtime_error);
+}
+
 TEST(Film, InvalidSettingsThrow) {
     const double nan = std::numeric_limits<double>::quiet_NaN();
     auto make = [](auto&& change) {

@@ -1,6 +1,7 @@
 // EXR and PNG output: exact float round trips with layer names and metadata, the Rec.709
 // chromaticities attribute, all-or-nothing writing, input errors on bad files, rejection of
 // non-finite values, the PNG header and the documented display encoding, and auto-exposure.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -9,12 +10,15 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <tuple>
+#include <utility>
 #include <unistd.h>
 #include <vector>
 
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfInputFile.h>
+#include <OpenEXR/ImfMultiPartInputFile.h>
 #include <OpenEXR/ImfStandardAttributes.h>
 #include <OpenEXR/ImfStringAttribute.h>
 #include <glm/geometric.hpp>
@@ -216,6 +220,105 @@ TEST_F(ImageIOTest, NonFiniteValuesAndMismatchedLayersAreRejected) {
     EXPECT_THROW(writeExr(path("bad.exr"), {makeLayer("", 3, 3, 1.0f)}, {{"channels", "x"}}),
                  std::logic_error);
     EXPECT_FALSE(leftovers(dir_));
+}
+
+// Per-ghost layers over their footprints: a part of their own each, the data window where the
+// layer lies in the frame, the display window the frame; the first part holds the main image and
+// the other whole-frame layers, so a reader that knows no parts sees the image.
+TEST_F(ImageIOTest, WindowedLayersAreOwnPartsWithTheirDataWindowsInPlace) {
+    const ImageLayer main = makeLayer("", 40, 30, 0.5f), whole = makeLayer("ghost", 40, 30, 2.0f);
+    ImageLayer small = makeLayer("ghost_03_01", 7, 5, -1.5f);
+    small.x = 31, small.y = 2;  // touches no frame edge
+    ImageLayer corner = makeLayer("ghost_09_04", 9, 4, 3.25f);
+    corner.x = 31, corner.y = 26;  // the bottom-right corner: its last pixel is the frame's last
+    ImageLayer everything = makeLayer("ghost_12_10", 40, 30, -0.75f);  // covers the frame, still a part
+    ExrWriteOptions options;
+    options.ownParts = {"ghost_03_01", "ghost_09_04", "ghost_12_10"};
+    options.storage["ghost_09_04"] = ExrStorage::FloatHalfPrecision;
+    writeExr(path("parts.exr"), {main, whole, small, corner, everything}, {{"software", "flare test"}}, options);
+
+    Imf::MultiPartInputFile file(path("parts.exr").c_str());
+    ASSERT_EQ(file.parts(), 4);
+    EXPECT_EQ(file.header(0).name(), "rgba");
+    EXPECT_NE(file.header(0).channels().findChannel("R"), nullptr);
+    EXPECT_NE(file.header(0).channels().findChannel("ghost.R"), nullptr);
+    EXPECT_NE(file.header(0).findTypedAttribute<Imf::StringAttribute>("software"), nullptr);
+    const Imath::Box2i frame(Imath::V2i(0, 0), Imath::V2i(39, 29));
+    const std::pair<const ImageLayer*, int> parts[] = {{&small, 1}, {&corner, 2}, {&everything, 3}};
+    for (const auto& [layer, p] : parts) {
+        const Imf::Header& header = file.header(p);
+        EXPECT_EQ(header.name(), layer->name);
+        EXPECT_EQ(header.displayWindow(), frame);
+        EXPECT_EQ(header.dataWindow(), Imath::Box2i(Imath::V2i(layer->x, layer->y),
+                                                    Imath::V2i(layer->x + layer->width - 1, layer->y + layer->height - 1)));
+        EXPECT_NE(header.channels().findChannel(layer->name + ".G"), nullptr);
+        EXPECT_TRUE(hasChromaticities(header));
+    }
+    // A single-part reader sees the first part: the main image and the whole-frame layers.
+    EXPECT_EQ(Imf::InputFile(path("parts.exr").c_str()).header().channels().findChannel("ghost_03_01.R"), nullptr);
+
+    // Read as stored: each over its window, exactly (the half-precision one rounded).
+    const ExrImage image = readExrImage(path("parts.exr"));
+    EXPECT_EQ(image.width, 40);
+    EXPECT_EQ(image.height, 30);
+    EXPECT_EQ(image.ownParts, options.ownParts);
+    ASSERT_EQ(image.layers.size(), 5u);
+    EXPECT_EQ(image.layers[0].name, "");
+    for (const ImageLayer* written : std::vector<const ImageLayer*>{&main, &whole, &small, &everything}) {
+        const auto it = std::find_if(image.layers.begin(), image.layers.end(),
+                                     [&](const ImageLayer& l) { return l.name == written->name; });
+        ASSERT_NE(it, image.layers.end()) << written->name;
+        EXPECT_EQ(std::tie(it->x, it->y, it->width, it->height),
+                  std::tie(written->x, written->y, written->width, written->height));
+        EXPECT_EQ(it->rgb, written->rgb) << written->name;
+    }
+    // Over the whole frame: the window's pixels in place, zeros elsewhere.
+    for (const ImageLayer* written : std::vector<const ImageLayer*>{&small, &corner}) {
+        const ImageLayer back = readExrLayer(path("parts.exr"), written->name);
+        ASSERT_EQ(back.width, 40);
+        ASSERT_EQ(back.height, 30);
+        EXPECT_EQ(back.x, 0);
+        for (int y = 0; y < 30; ++y)
+            for (int x = 0; x < 40; ++x)
+                for (int c = 0; c < 3; ++c) {
+                    const bool inside = x >= written->x && x < written->x + written->width && y >= written->y &&
+                                        y < written->y + written->height;
+                    const float value = back.rgb[(static_cast<size_t>(y) * 40 + x) * 3 + c];
+                    if (!inside) {
+                        ASSERT_EQ(value, 0.0f) << written->name << " at " << x << ", " << y;
+                        continue;
+                    }
+                    const float stored =
+                        written->rgb[(static_cast<size_t>(y - written->y) * written->width + (x - written->x)) * 3 + c];
+                    if (written == &small) ASSERT_EQ(value, stored);
+                    else ASSERT_NEAR(value, stored, std::ldexp(std::abs(stored), -11));
+                }
+    }
+    const std::vector<ImageLayer> expanded = readExr(path("parts.exr"));
+    ASSERT_EQ(expanded.size(), 5u);
+    for (const ImageLayer& layer : expanded) EXPECT_EQ(std::tie(layer.width, layer.height), std::tie(whole.width, whole.height));
+    EXPECT_EQ(expanded[0].rgb, main.rgb);
+}
+
+TEST_F(ImageIOTest, WindowsMustBeOwnPartsInsideTheFrame) {
+    const ImageLayer main = makeLayer("", 10, 8, 1.0f);
+    ImageLayer window = makeLayer("ghost_02_01", 4, 3, 1.0f);
+    window.x = 2, window.y = 1;
+    EXPECT_THROW(writeExr(path("bad.exr"), {main, window}, {}), std::logic_error);  // not a part of its own
+    ExrWriteOptions options;
+    options.ownParts = {"ghost_02_01"};
+    window.x = 7;  // 7 + 4 > 10
+    EXPECT_THROW(writeExr(path("bad.exr"), {main, window}, {}, options), std::logic_error);
+    window.x = 2, window.y = -1;
+    EXPECT_THROW(writeExr(path("bad.exr"), {main, window}, {}, options), std::logic_error);
+    window.y = 1;
+    options.ownParts.insert("no-such-layer");
+    EXPECT_THROW(writeExr(path("bad.exr"), {main, window}, {}, options), std::logic_error);
+    EXPECT_FALSE(leftovers(dir_));
+    // Without parts the file is the single-part one it always was.
+    writeExr(path("single.exr"), {main}, {});
+    EXPECT_EQ(Imf::MultiPartInputFile(path("single.exr").c_str()).parts(), 1);
+    EXPECT_FALSE(Imf::InputFile(path("single.exr").c_str()).header().hasName());
 }
 
 TEST_F(ImageIOTest, PngHasSignatureAndImageHeader) {
