@@ -1,16 +1,20 @@
 // The command-line front end, run as a subprocess: the JSON keys other tools read, the SVG
 // drawing, and the exit code 2 with a file:line message for bad input.
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 #include <sys/wait.h>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include "TestUtil.h"
+#include "flare/film/ImageIO.h"
 
 namespace flare {
 namespace {
@@ -119,6 +123,50 @@ TEST(Cli, PreviewOfTheDefaultSceneWritesExrAndPng) {
     const CliRun bad = run("preview " + scene + " -o " + exr);
     EXPECT_EQ(bad.exitCode, 2);
     EXPECT_NE(bad.out.find("angular_diameter_deg"), std::string::npos) << bad.out;
+}
+
+// --layers top:N writes N per-ghost parts and ghost_other (a part each, over its footprint), whose
+// sum with the kept ones is the ghost layer; a bare --layers before the scene still takes it as the
+// scene; a selection it does not know is an input error saying what it accepts.
+TEST(Cli, PreviewLayersTopNWritesThePartsAndGhostOther) {
+    const std::string dir = test::processTempDir("cli").string();
+    const std::string scene = dir + "/layers.json", top = dir + "/top.exr", every = dir + "/every.exr";
+    std::ofstream(scene) << R"({"lens": "double-gauss-50mm", "f_number": 8,
+        "sensor": {"resolution": [192, 128]},
+        "lights": [{"type": "directional", "field_deg": [6, 4], "angular_diameter_deg": 0.53}],
+        "render": {"preview_wavelengths": 3, "diffraction": false}})";
+    const CliRun r = run("preview " + scene + " -o " + top + " --layers top:3 --float-layers --quiet");
+    ASSERT_EQ(r.exitCode, 0) << r.out;
+    const ExrImage image = readExrImage(top);
+    std::vector<std::string> parts(image.ownParts.begin(), image.ownParts.end());
+    ASSERT_EQ(parts.size(), 4u);
+    EXPECT_EQ(parts.back(), "ghost_other");
+    std::vector<double> sum(3 * 192 * 128, 0.0);
+    for (const ImageLayer& layer : image.layers) {
+        if (!image.ownParts.count(layer.name)) continue;
+        for (int y = 0; y < layer.height; ++y)
+            for (int x = 0; x < layer.width; ++x)
+                for (int c = 0; c < 3; ++c)
+                    sum[(static_cast<size_t>(y + layer.y) * 192 + x + layer.x) * 3 + c] +=
+                        layer.rgb[(static_cast<size_t>(y) * layer.width + x) * 3 + c];
+    }
+    const ImageLayer ghost = readExrLayer(top, "ghost");
+    double largest = 0.0, difference = 0.0;
+    for (size_t i = 0; i < sum.size(); ++i) {
+        largest = std::max(largest, std::abs(static_cast<double>(ghost.rgb[i])));
+        difference = std::max(difference, std::abs(sum[i] - ghost.rgb[i]));
+    }
+    EXPECT_GT(largest, 0.0);
+    EXPECT_LT(difference, 1e-5 * largest);  // float roundings of a few layers and passes (test_ghost_layers.cpp bounds them per pixel)
+
+    const CliRun before = run("preview --layers " + scene + " -o " + every + " --quiet");
+    ASSERT_EQ(before.exitCode, 0) << before.out;
+    EXPECT_GT(readExrImage(every).ownParts.size(), 4u);
+    for (const char* bad : {"top:0", "share:2", "best:3"}) {
+        const CliRun wrong = run("preview " + scene + " -o " + every + " --layers " + bad + " --quiet");
+        EXPECT_EQ(wrong.exitCode, 2) << bad;
+        EXPECT_NE(wrong.out.find("share:F"), std::string::npos) << wrong.out;
+    }
 }
 
 TEST(Cli, BadLensFileExitsWithCodeTwoAndNamesFileAndLine) {
