@@ -1,4 +1,5 @@
-// Image output: multi-layer OpenEXR (32-bit float, or half precision for selected layers) for the result (and reading it back for tests and
+// Image output: multi-layer OpenEXR (32-bit float, or half precision for selected layers; layers
+// over a window of the frame as parts of their own) for the result (and reading it back for tests and
 // image comparison), and a tone-mapped 8-bit sRGB PNG for a quick look. Both writers are
 // all-or-nothing: they write `path + ".partial"` and rename it over `path` only when complete, so
 // a failed or interrupted render never leaves a truncated image under the final name.
@@ -58,10 +59,10 @@ enum class ExrStorage : std::uint8_t {
 // precision (2⁻¹¹) holds.
 bool fitsHalf(const ImageLayer& layer);
 
-// The EXR's lossless compression. ZIP suits smooth images (the preview's, with many mostly empty
-// per-ghost layers: 86 MB against PIZ's 138 MB for the default scene); PIZ (a wavelet transform
-// and Huffman coding) suits grainy ones, where it is both smaller and faster (the default
-// render's layers: 57 MB in 0.5 s against ZIP's 72 MB in 1.0 s on two cores).
+// The EXR's lossless compression. ZIP suits smooth images (the preview's: with full-frame per-ghost
+// layers, 86 MB against PIZ's 138 MB for the default scene); PIZ (a wavelet transform and Huffman
+// coding) suits grainy ones, where it is both smaller and faster (the default render's layers,
+// full-frame then: 57 MB in 0.5 s against ZIP's 72 MB in 1.0 s on two cores).
 enum class ExrCompression : std::uint8_t { Zip, Piz };
 
 struct ExrWriteOptions {
