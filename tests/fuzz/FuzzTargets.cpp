@@ -335,7 +335,13 @@ int writeGeneratedSeeds(const std::string& dir) {
     writeExr((exrDir / "layers-8x8.exr").string(), {layer("", 8, 8), layer("ghost", 8, 8), layer("direct", 8, 8)},
              {{"flare:seed", "1"}});
     writeExr((exrDir / "one-pixel.exr").string(), {layer("", 1, 1)}, {});
-    written += 3;
+    // Per-ghost layers as parts of their own over their footprints (a multi-part file).
+    ImageLayer footprint = layer("ghost_03_01", 3, 2);
+    footprint.x = 4, footprint.y = 5;
+    ExrWriteOptions parts;
+    parts.ownParts = {"ghost_03_01"};
+    writeExr((exrDir / "parts-8x8.exr").string(), {layer("", 8, 8), layer("ghost", 8, 8), footprint}, {}, parts);
+    written += 4;
 
     // Half RGBA through OpenEXR directly: other compressions, an offset data window, tiles, mipmaps.
     const int w = 6, h = 5;
