@@ -1,8 +1,9 @@
 // The live cells of a path's pupil region (LivePupilRegion, from the ghost analysis), grown by
-// one cell on every side: the analysis samples cell centres at one wavelength, and a path stays
-// live a little beyond them (other wavelengths, the sun's disk). The mask decides who samples
-// what: guided emission draws points uniformly over it, and the unguided tracer leaves to the
-// guided strategy exactly the paths that start inside it. Paths outside it are not lost.
+// one cell on every side: the cells whose ray lands on the sensor for some wavelength or point of
+// the light (the analysis samples cell centres at one of each), and their neighbours. The mask
+// decides who samples what: guided emission draws points uniformly over it, the beams mesh the
+// live region inside it, and the unguided tracer leaves to the guided strategy exactly the paths
+// that start inside it. Paths outside it are not lost.
 #pragma once
 
 #include <algorithm>
