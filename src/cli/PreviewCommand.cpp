@@ -26,6 +26,7 @@ struct PreviewCommandOptions {
     bool noDiffraction = false;
     bool higher = false;
     int passes = PreviewBudget::kDefaultPasses;
+    int beamsPerPass = 0;
     double timeS = 0.0;
     long long seed = -1;  // −1: the scene's
     bool quiet = false;
@@ -49,6 +50,7 @@ void run(const PreviewCommandOptions& o) {
     }
     PreviewBudget budget;
     budget.passes = o.passes;
+    budget.beamsPerPass = o.beamsPerPass;
     // --time counts from the command's start: what loading the scene took is spent already.
     if (o.timeS > 0.0)
         budget.timeS = std::max(1e-3, o.timeS - std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
@@ -114,6 +116,10 @@ void addPreviewCommand(CLI::App& app) {
                         "passes of the final render's beams (default " + std::to_string(PreviewBudget::kDefaultPasses) +
                             "; the same seed and passes give the same image)")
         ->check(CLI::Range(1, 1 << 20));
+    preview->add_option("--beams-per-pass", o->beamsPerPass,
+                        "beams per pass and light (default: half the scene's render.beams_per_pass, so that the "
+                        "default passes cost one pass of the render; the render's own value makes the preview its first passes)")
+        ->check(CLI::Range(16, 65536));
     preview->add_option("--time", o->timeS,
                         "instead of --passes: as many passes as fit in this many seconds of wall time, analysis included")
         ->check(CLI::PositiveNumber);
