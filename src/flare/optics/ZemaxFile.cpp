@@ -12,6 +12,7 @@
 
 #include "flare/core/Error.h"
 #include "flare/core/TextEncoding.h"
+#include "flare/core/Warnings.h"
 #include "flare/optics/LensFile.h"
 #include "flare/optics/LensSystem.h"
 #include "flare/optics/Paraxial.h"
@@ -102,7 +103,7 @@ private:
     void warn(int line, const std::string& problem) {
         const std::string text = file_ + ":" + std::to_string(line) + ": " + problem;
         if (warnings_) warnings_->push_back(text);
-        else std::fprintf(stderr, "flare: warning: %s\n", text.c_str());
+        else flare::warn(text);
     }
 
     // Field `index` of a line as a number; `what` names it in errors.

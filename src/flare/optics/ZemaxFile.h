@@ -22,7 +22,8 @@
 namespace flare {
 
 // `bytes` in either encoding Zemax writes (UTF-16 LE with a byte-order mark, or 8-bit text).
-// Warnings ("file:line: ...") go to `warnings`, or to stderr when it is null.
+// Warnings ("file:line: ...") go to `warnings`, or to flare::warn (core/Warnings.h: stderr unless
+// captured) when it is null.
 LensPrescription parseZemaxText(std::string_view bytes, const std::string& fileName,
                                 std::vector<std::string>* warnings = nullptr);
 LensPrescription loadZemaxFile(const std::string& path, std::vector<std::string>* warnings = nullptr);
