@@ -131,6 +131,7 @@ private:
     void readOperand(const std::string& keyword, const std::vector<std::string_view>& tokens, int line);
     Medium medium(const ZemaxSurface& s, std::string* text) const;
     void buildZoom(LensPrescription& p, const std::vector<int>& rowOfSurface);
+    void applyFlareNotes(LensPrescription& p);
 
     std::string file_;
     std::vector<std::string>* warnings_;
@@ -146,6 +147,11 @@ private:
     std::vector<ZemaxSurface> surfaces_;
     int configurations_ = 1, activeConfiguration_ = 1, configurationLine_ = 0;
     std::map<int, ThicknessOperand> thicknessOperands_;  // by surface
+    // flare's own lines in the file's notes (`NOTE 0 flare: iris blades=7`, written by writeZemax):
+    // what a .zmx file cannot say, kept where Zemax keeps and ignores it. Text after "flare:", line.
+    std::vector<std::pair<std::string, int>> flareNotes_;
+    std::vector<ZoomPosition> notedPositions_;  // from a `flare: zoom` note, in configuration order
+    int notedPositionsLine_ = 0;
     std::vector<std::pair<int, int>> thicknessSolves_;    // TCOM: surface, line
 };
 
@@ -270,7 +276,8 @@ Medium ZemaxReader::medium(const ZemaxSurface& s, std::string* text) const {
     if (!glass) glass = findCatalogGlass(g.name);
     if (!glass)
         failSurface(g.line, s.number, "GLAS", "unknown glass '" + g.name +
-                                                  "' (not in the built-in or the shipped catalogues; lenses/glass/README.md)");
+                                                  "' (not in the built-in, the shipped or a private catalogue; lenses/glass/README.md; "
+                                                  "a catalogue of your own: --glass-catalog FILE.agf)");
     if (!coversVisible(*glass))
         failSurface(g.line, s.number, "GLAS", "glass '" + g.name + "' (" + glass->maker + ") is not made for the visible: " +
                                                   validRangeText(*glass));
@@ -343,6 +350,15 @@ LensPrescription ZemaxReader::read(std::string_view bytes) {
                 fail(line, "THIC: a multi-configuration operand before MNUM");
             } else if (inConfigurations && (keyword == "THIC" || kIgnoredOperands.count(keyword) || kUnsupportedOperands.count(keyword))) {
                 readOperand(keyword, tokens, line);
+            } else if (keyword == "NOTE") {
+                // NOTE n text: a note, read past unless it is one of flare's own.
+                std::string_view rest = lineText;
+                for (int field = 0; field < 2 && !rest.empty(); ++field) {
+                    while (!rest.empty() && std::isspace(static_cast<unsigned char>(rest.front()))) rest.remove_prefix(1);
+                    while (!rest.empty() && !std::isspace(static_cast<unsigned char>(rest.front()))) rest.remove_prefix(1);
+                }
+                while (!rest.empty() && std::isspace(static_cast<unsigned char>(rest.front()))) rest.remove_prefix(1);
+                if (rest.substr(0, 6) == "flare:") flareNotes_.push_back({std::string(rest.substr(6)), line});
             } else if (kIgnoredSystemKeywords.count(keyword)) {
                 // read past
             } else if (!surfaces_.empty() && !inConfigurations) {
@@ -404,6 +420,8 @@ LensPrescription ZemaxReader::read(std::string_view bytes) {
         if (!(p.objectDistanceMm > 0.0)) failSurface(object.thicknessLine, 0, "DISZ", "the object distance must be positive or INFINITY");
     }
 
+    applyFlareNotes(p);  // before the rows: a note's coating is what a COAT line names
+
     int stops = 0;
     std::vector<int> rowOfSurface(surfaces_.size(), -1);
     Medium before = Medium::air();  // the medium in front of the surface being read
@@ -441,17 +459,27 @@ LensPrescription ZemaxReader::read(std::string_view bytes) {
         row.mediumAfter = medium(s, &row.materialText);
         if (s.coating) {
             const auto& [coatingName, line] = *s.coating;
-            if (asciiUpper(coatingName) == "AR") {
+            const std::string upper = asciiUpper(coatingName);
+            if (p.findCoating(coatingName) && upper != "MGF2") {
+                // One a flare note defined (or flare's own `none` / `mgf2` as written).
+                row.coatingName = coatingName;
+            } else if (upper == "AR" || upper == "MGF2") {
+                // Zemax's AR is one quarter-wave layer of MgF2 at the primary wavelength, and a
+                // material named as a coating is one quarter-wave layer of that material: COAT
+                // MGF2 is the same layer. At 550 nm it is flare's mgf2.
                 const double primaryNm = primaryUm * 1000.0;
                 if (primaryNm == kMgF2DesignNm) {
                     row.coatingName = "mgf2";
                 } else {
-                    if (!p.findCoating("AR")) p.coatings.push_back(Coating::quarterWave("AR", kMgF2Index, primaryNm));
-                    row.coatingName = "AR";
+                    if (!p.findCoating(upper)) p.coatings.push_back(Coating::quarterWave(upper, kMgF2Index, primaryNm));
+                    row.coatingName = upper;
                 }
-            } else if (asciiUpper(coatingName) != "NONE") {
+            } else if (upper == "NONE") {
+                row.coatingName = "none";
+            } else {
                 warn(line, "surface " + std::to_string(n) + ", COAT: coating '" + coatingName +
-                               "' is not one flare knows (only Zemax's AR is read): the surface is left uncoated");
+                               "' is not one flare knows (AR, MGF2, NONE, or one a `flare: coating` note defines): the "
+                               "surface is left uncoated");
             }
         }
         if (s.stop && ++stops > 1) failSurface(s.line, n, "STOP", "a second aperture stop");
@@ -507,6 +535,26 @@ LensPrescription ZemaxReader::read(std::string_view bytes) {
     buildZoom(p, rowOfSurface);
     validatePrescription(p, lastLine);
     return p;
+}
+
+// flare's notes: iris and coating lines as in a .lens file; a zoom line's names and focal lengths,
+// applied to the configurations by buildZoom. Anything else is a warning (a newer flare's note).
+void ZemaxReader::applyFlareNotes(LensPrescription& p) {
+    for (const auto& [text, line] : flareNotes_) {
+        const std::vector<std::string_view> tokens = splitWhitespace(text);
+        const std::string key = tokens.empty() ? "" : asciiLower(tokens[0]);
+        if (key == "iris" || key == "coating") {
+            parseLensHeaderLine(p, text, file_, line);
+        } else if (key == "zoom") {
+            if (!notedPositions_.empty()) fail(line, "flare: zoom: given twice");
+            LensPrescription names;  // the .lens reader checks the zoom line (names, increasing focal lengths)
+            parseLensHeaderLine(names, text, file_, line);
+            notedPositions_ = names.zoomPositions;
+            notedPositionsLine_ = line;
+        } else {
+            warn(line, "a flare note '" + key + "' this flare does not know: ignored");
+        }
+    }
 }
 
 // Configurations whose thicknesses differ become zoom positions, in increasing focal length
@@ -570,8 +618,21 @@ void ZemaxReader::buildZoom(LensPrescription& p, const std::vector<int>& rowOfSu
                                          std::to_string(efl[i].second + 1) +
                                          " have the same focal length: flare's zoom positions must differ in it");
     }
+    // A `flare: zoom` note names the configurations (in their order) with their published focal
+    // lengths; without one they are config1, config2, ... at their EFL.
+    if (!notedPositions_.empty() && notedPositions_.size() != static_cast<size_t>(configurations_)) {
+        warn(notedPositionsLine_, "flare: zoom: " + std::to_string(notedPositions_.size()) + " position(s) for " +
+                                      std::to_string(configurations_) + " configurations: the names are left out");
+        notedPositions_.clear();
+    }
     std::vector<ZoomPosition> positions;
-    for (const auto& [focal, c] : efl) positions.push_back({"config" + std::to_string(c + 1), focal});
+    for (const auto& [focal, c] : efl)
+        positions.push_back(notedPositions_.empty() ? ZoomPosition{"config" + std::to_string(c + 1), focal}
+                                                    : notedPositions_[c]);
+    for (size_t i = 1; i < positions.size(); ++i)
+        if (!notedPositions_.empty() && positions[i].focalLengthMm <= positions[i - 1].focalLengthMm)
+            fail(notedPositionsLine_, "flare: zoom: the positions' focal lengths do not increase with the "
+                                      "configurations' EFLs");
     for (VariableGap& gap : p.gaps) {
         std::vector<double> ordered;
         for (const auto& [focal, c] : efl) ordered.push_back(gap.valuesMm[c]);
@@ -634,6 +695,39 @@ std::string writeZemax(const LensPrescription& p) {
     line(out, "WAVM 2 " + formatNumber(kMgF2DesignNm / 1000.0) + " 1");
     line(out, "WAVM 3 " + formatNumber(kLineCNm / 1000.0) + " 1");
     line(out, "PWAV 2");
+    // What a .zmx file cannot say, in notes Zemax keeps and ignores and flare reads back: the iris,
+    // the zoom positions' names and published focal lengths, the coatings' layers.
+    if (p.iris.blades != 0 || p.iris.rotationDeg != 0.0 || p.iris.curvature != 0.0)
+        line(out, "NOTE 0 flare: iris blades=" + std::to_string(p.iris.blades) + " rotation_deg=" +
+                      formatNumber(p.iris.rotationDeg) + " curvature=" + formatNumber(p.iris.curvature));
+    if (!p.zoomPositions.empty()) {
+        std::string zoom = "NOTE 0 flare: zoom";
+        for (const ZoomPosition& z : p.zoomPositions) zoom += " " + z.name + "=" + formatNumber(z.focalLengthMm);
+        line(out, zoom);
+    }
+    for (const Coating& c : p.coatings) {
+        if (!c.changesInterface()) continue;
+        std::string coating = "NOTE 0 flare: coating " + c.name;
+        if (c.ideal) {
+            coating += " ideal";
+            for (size_t k = 0; k < c.ideal->wavelengthsNm.size(); ++k) {
+                // Appended piece by piece (g++ 12 warns falsely of overlap for `" " + string&&`).
+                coating += ' ';
+                coating += formatNumber(c.ideal->wavelengthsNm[k]);
+                coating += ':';
+                coating += formatNumber(c.ideal->reflectances[k]);
+            }
+        } else {
+            coating += " stack";
+            for (const ThinFilmLayer& layer : c.layers) {
+                coating += ' ';
+                coating += formatNumber(layer.index);
+                coating += ':';
+                coating += formatNumber(layer.thicknessNm);
+            }
+        }
+        line(out, coating);
+    }
 
     line(out, "SURF 0");
     line(out, "  TYPE STANDARD");
