@@ -47,6 +47,7 @@ struct RenderCommandOptions {
     long long seed = -1;     // −1: the scene's
     int threads = 0;
     double checkpointIntervalS = 60.0;
+    std::optional<double> exposureStops;  // unset: automatic
     double interiorAlbedo = -1.0;  // < 0: the scene's finishes
     bool layers = false;
     bool noDiffraction = false;
@@ -206,7 +207,7 @@ int run(const RenderCommandOptions& o) {
     writeExr(outputs, o.exr, layers, metadata, {.storage = {}, .compression = ExrCompression::Piz});
     if (o.pngGiven) {
         const ImageLayer& ghost = layers[1 + kLayerGhost];
-        writePng(outputs, o.png, layers.front(), 0.25 * autoExposure(ghost));
+        writePng(outputs, o.png, layers.front(), pngExposure(o.exposureStops, ghost, "render", o.quiet));
     }
     if (o.reportGiven) {
         const nlohmann::json report =
@@ -270,6 +271,7 @@ void addRenderCommand(CLI::App& app) {
                      "trace the unguided photons' stray light analog (absorption by roulette, no connections to the "
                      "sensor), as the naive mode does: slower to converge, for comparison");
     render->add_option("--png", o->png, "also write a tone-mapped PNG");
+    addExposureOption(render, o->exposureStops);
     render->add_option("--report", o->report, "write a JSON report (per-ghost power with standard errors, layers, energy)");
     render->add_option("--checkpoint", o->checkpoint,
                        "checkpoint file: resumed from if it exists, written periodically, on Ctrl-C and at the end");
