@@ -28,13 +28,6 @@ constexpr double kMgF2DesignNm = 550.0;
 // The primary wavelength a file without wavelength lines has (OpticStudio's default).
 constexpr double kDefaultPrimaryUm = 0.55;
 
-// The shortest text that reads back as the same double.
-std::string formatNumber(double value) {
-    char buffer[64];
-    const auto [end, ec] = std::to_chars(buffer, buffer + sizeof buffer, value);
-    return std::string(buffer, end);
-}
-
 // Keywords that describe what flare does not model or computes itself (fields, wavelengths
 // beyond the primary, ray aiming, tolerances, editor state, notes): read past in silence.
 const std::set<std::string, std::less<>> kIgnoredSystemKeywords = {
@@ -251,14 +244,14 @@ Medium ZemaxReader::medium(const ZemaxSurface& s, std::string* text) const {
         // Model glass: GLAS name 1 0 nd vd dPgF ...
         if (g.numbers.size() < 3) failSurface(g.line, s.number, "GLAS", "a model glass needs nd and Vd");
         const double nd = g.numbers[1], vd = g.numbers[2];
-        if (nd <= 1.0 || nd > 3.0) failSurface(g.line, s.number, "GLAS", "model glass nd must lie in (1, 3], got " + formatNumber(nd));
+        if (nd <= 1.0 || nd > 3.0) failSurface(g.line, s.number, "GLAS", "model glass nd must lie in (1, 3], got " + shortestNumberText(nd));
         // Vd = 0: no dispersion (how the writer states a constant index).
         if (vd == 0.0) {
-            *text = "n=" + formatNumber(nd);
+            *text = "n=" + shortestNumberText(nd);
             return Medium::constant(nd);
         }
-        if (vd < 5.0 || vd > 150.0) failSurface(g.line, s.number, "GLAS", "model glass Vd must lie in [5, 150], got " + formatNumber(vd));
-        *text = formatNumber(nd) + "/" + formatNumber(vd);
+        if (vd < 5.0 || vd > 150.0) failSurface(g.line, s.number, "GLAS", "model glass Vd must lie in [5, 150], got " + shortestNumberText(vd));
+        *text = shortestNumberText(nd) + "/" + shortestNumberText(vd);
         return Medium::abbe(nd, vd);
     }
     if (g.status == 4) {
@@ -612,7 +605,7 @@ void ZemaxReader::buildZoom(LensPrescription& p, const std::vector<int>& rowOfSu
     for (size_t i = 0; i < efl.size(); ++i) {
         if (!(efl[i].first > 0.0))
             fail(configurationLine_, "configuration " + std::to_string(efl[i].second + 1) +
-                                         " has no positive focal length (EFL " + formatNumber(efl[i].first) + " mm)");
+                                         " has no positive focal length (EFL " + shortestNumberText(efl[i].first) + " mm)");
         if (i > 0 && efl[i].first == efl[i - 1].first)
             fail(configurationLine_, "configurations " + std::to_string(efl[i - 1].second + 1) + " and " +
                                          std::to_string(efl[i].second + 1) +
@@ -641,14 +634,6 @@ void ZemaxReader::buildZoom(LensPrescription& p, const std::vector<int>& rowOfSu
     p.zoomPositions = std::move(positions);
 }
 
-// ---- Writing -------------------------------------------------------------------------------------
-
-// The catalogue a .zmx file names for a glass: an .agf catalogue's own name, the maker of a
-// built-in glass in capitals (its catalogue's file name).
-std::string catalogName(const CatalogGlass& glass) { return asciiUpper(glass.maker); }
-
-void line(std::string& out, const std::string& text) { out += text + "\r\n"; }
-
 }  // namespace
 
 LensPrescription parseZemaxText(std::string_view bytes, const std::string& fileName, std::vector<std::string>* warnings) {
@@ -657,138 +642,6 @@ LensPrescription parseZemaxText(std::string_view bytes, const std::string& fileN
 
 LensPrescription loadZemaxFile(const std::string& path, std::vector<std::string>* warnings) {
     return parseZemaxText(readFileBytes(path, "lens file"), path, warnings);
-}
-
-std::string writeZemax(const LensPrescription& p) {
-    // Every zoom position resolved once: its thicknesses (an `auto` one is the focus solve's).
-    std::vector<LensSystem> positions;
-    if (p.zoomPositions.empty()) positions.push_back(LensSystem::build(p));
-    for (const ZoomPosition& z : p.zoomPositions) positions.push_back(LensSystem::build(p, LensState{z.name, {}, {}}));
-    auto thicknessAt = [&](size_t position, size_t row) {
-        const ThicknessSpec& t = p.rows[row].thickness;
-        switch (t.kind) {
-            case ThicknessSpec::Kind::Value: return t.valueMm;
-            case ThicknessSpec::Kind::Gap: return p.findGap(t.gapName)->valuesMm[position];
-            case ThicknessSpec::Kind::Auto: break;
-        }
-        const LensSystem& lens = positions[position];
-        return lens.sensorZMm() - lens.surface(lens.surfaceCount() - 1).vertexZMm;
-    };
-
-    std::string out;
-    line(out, "MODE SEQ");
-    line(out, "NAME " + p.name);
-    line(out, "UNIT MM X W X CM MR CPMM");
-    if (p.fNumber) line(out, "FNUM " + formatNumber(*p.fNumber) + " 0");
-    std::vector<std::string> catalogs;
-    for (const PrescriptionRow& row : p.rows)
-        if (const CatalogGlass* glass = row.mediumAfter.kind() == Medium::Kind::Catalog ? row.mediumAfter.baseGlass() : nullptr)
-            if (std::find(catalogs.begin(), catalogs.end(), catalogName(*glass)) == catalogs.end())
-                catalogs.push_back(catalogName(*glass));
-    if (!catalogs.empty()) {
-        std::string gcat = "GCAT";
-        for (const std::string& c : catalogs) gcat += " " + c;
-        line(out, gcat);
-    }
-    // The primary wavelength is where Zemax's AR coating is a quarter wave: flare's mgf2 at 550 nm.
-    line(out, "WAVM 1 " + formatNumber(kLineFNm / 1000.0) + " 1");
-    line(out, "WAVM 2 " + formatNumber(kMgF2DesignNm / 1000.0) + " 1");
-    line(out, "WAVM 3 " + formatNumber(kLineCNm / 1000.0) + " 1");
-    line(out, "PWAV 2");
-    // What a .zmx file cannot say, in notes Zemax keeps and ignores and flare reads back: the iris,
-    // the zoom positions' names and published focal lengths, the coatings' layers.
-    if (p.iris.blades != 0 || p.iris.rotationDeg != 0.0 || p.iris.curvature != 0.0)
-        line(out, "NOTE 0 flare: iris blades=" + std::to_string(p.iris.blades) + " rotation_deg=" +
-                      formatNumber(p.iris.rotationDeg) + " curvature=" + formatNumber(p.iris.curvature));
-    if (!p.zoomPositions.empty()) {
-        std::string zoom = "NOTE 0 flare: zoom";
-        for (const ZoomPosition& z : p.zoomPositions) zoom += " " + z.name + "=" + formatNumber(z.focalLengthMm);
-        line(out, zoom);
-    }
-    for (const Coating& c : p.coatings) {
-        if (!c.changesInterface()) continue;
-        std::string coating = "NOTE 0 flare: coating " + c.name;
-        if (c.ideal) {
-            coating += " ideal";
-            for (size_t k = 0; k < c.ideal->wavelengthsNm.size(); ++k) {
-                // Appended piece by piece (g++ 12 warns falsely of overlap for `" " + string&&`).
-                coating += ' ';
-                coating += formatNumber(c.ideal->wavelengthsNm[k]);
-                coating += ':';
-                coating += formatNumber(c.ideal->reflectances[k]);
-            }
-        } else {
-            coating += " stack";
-            for (const ThinFilmLayer& layer : c.layers) {
-                coating += ' ';
-                coating += formatNumber(layer.index);
-                coating += ':';
-                coating += formatNumber(layer.thicknessNm);
-            }
-        }
-        line(out, coating);
-    }
-
-    line(out, "SURF 0");
-    line(out, "  TYPE STANDARD");
-    line(out, "  CURV 0");
-    line(out, std::isinf(p.objectDistanceMm) ? "  DISZ INFINITY" : "  DISZ " + formatNumber(p.objectDistanceMm));
-    std::vector<size_t> varying;  // rows whose thickness differs between positions
-    for (size_t i = 0; i < p.rows.size(); ++i) {
-        const PrescriptionRow& row = p.rows[i];
-        line(out, "SURF " + std::to_string(i + 1));
-        if (row.isStop) line(out, "  STOP");
-        const bool aspheric = std::any_of(row.asphere.begin(), row.asphere.end(), [](double a) { return a != 0.0; });
-        line(out, aspheric ? "  TYPE EVENASPH" : "  TYPE STANDARD");
-        line(out, "  CURV " + formatNumber(row.radiusMm == 0.0 ? 0.0 : 1.0 / row.radiusMm));
-        const Medium& before = i == 0 ? Medium::air() : p.rows[i - 1].mediumAfter;
-        if (!row.isStop && before.isAir() != row.mediumAfter.isAir()) {
-            const std::optional<Coating> coating = p.findCoating(row.coatingName.value_or(p.defaultCoating));
-            if (coating && coating->changesInterface())
-                line(out, "  COAT " + (coating->name == "mgf2" ? std::string("AR") : coating->name));
-        }
-        if (row.conic != 0.0) line(out, "  CONI " + formatNumber(row.conic));
-        if (aspheric) {
-            line(out, "  PARM 1 0");
-            for (int t = 0; t < kAsphereTerms; ++t) line(out, "  PARM " + std::to_string(t + 2) + " " + formatNumber(row.asphere[t]));
-        }
-        const double thickness = thicknessAt(0, i);
-        line(out, "  DISZ " + formatNumber(thickness));
-        for (size_t c = 1; c < positions.size(); ++c)
-            if (thicknessAt(c, i) != thickness && (varying.empty() || varying.back() != i)) varying.push_back(i);
-        const Medium& m = row.mediumAfter;
-        switch (m.kind()) {
-            case Medium::Kind::Air: break;
-            case Medium::Kind::Catalog:
-                line(out, "  GLAS " + std::string(m.baseGlass()->name) + " 0 0 " + formatNumber(m.baseGlass()->nd) + " " +
-                              formatNumber(m.baseGlass()->vd) + " 0 0 0 0 0 0");
-                break;
-            case Medium::Kind::Constant:
-                line(out, "  GLAS ___BLANK 1 0 " + formatNumber(m.nd()) + " 0 0 0 0 0 0 0");
-                break;
-            // nd/Vd media are model glasses; a Cauchy medium's own dispersion is not a .zmx notion,
-            // so it reads back as the nd/Vd medium of the same two numbers.
-            case Medium::Kind::AbbeMatched:
-            case Medium::Kind::Cauchy:
-                line(out, "  GLAS ___BLANK 1 0 " + formatNumber(m.nd()) + " " + formatNumber(m.vd()) + " 0 0 0 0 0 0");
-                break;
-        }
-        line(out, "  DIAM " + formatNumber(row.semiApertureMm));
-        if (row.mechSemiDiameterMm) line(out, "  MEMA " + formatNumber(*row.mechSemiDiameterMm));
-    }
-    line(out, "SURF " + std::to_string(p.rows.size() + 1));
-    line(out, "  TYPE STANDARD");
-    line(out, "  CURV 0");
-    line(out, "  DISZ 0");
-    line(out, "  DIAM " + formatNumber(positions.front().sensorHalfDiagonalMm()));
-    if (positions.size() > 1) {
-        line(out, "MNUM " + std::to_string(positions.size()) + " 1");
-        for (size_t i : varying)
-            for (size_t c = 0; c < positions.size(); ++c)
-                line(out, "THIC " + std::to_string(i + 1) + " " + std::to_string(c + 1) + " " +
-                              formatNumber(thicknessAt(c, i)));
-    }
-    return out;
 }
 
 }  // namespace flare
