@@ -11,9 +11,18 @@ void addGlassCatalogOptions(CLI::App& app) {
     const std::vector<std::vector<std::string>> commands = {{"lens", "info"},  {"lens", "check"}, {"lens", "export"},
                                                             {"lens", "draw"},  {"ghosts"},        {"preview"},
                                                             {"render"}};
+    // A child by name, or null (get_subcommand throws, and a renamed command must not stop the
+    // program from starting).
+    auto child = [](CLI::App* parent, const std::string& name) -> CLI::App* {
+        for (CLI::App* sub : parent->get_subcommands([](CLI::App*) { return true; }))
+            if (sub->get_name() == name) return sub;
+        return nullptr;
+    };
     for (const std::vector<std::string>& path : commands) {
         CLI::App* command = &app;
-        for (const std::string& name : path) command = command->get_subcommand(name);
+        for (const std::string& name : path)
+            if (command) command = child(command, name);
+        if (!command) continue;
         command
             ->add_option_function<std::vector<std::string>>(
                 "--glass-catalog",
