@@ -1,11 +1,13 @@
 #include "PreviewCommand.h"
 
+#include "Output.h"
 #include "StarburstReport.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "flare/core/OutputFiles.h"
@@ -29,6 +31,7 @@ struct PreviewCommandOptions {
     int beamsPerPass = 0;
     double timeS = 0.0;
     long long seed = -1;  // −1: the scene's
+    std::optional<double> exposureStops;  // unset: automatic
     bool quiet = false;
     bool pngGiven = false;  // --png given, even as ""
 };
@@ -57,12 +60,13 @@ void run(const PreviewCommandOptions& o) {
     if (o.seed >= 0) budget.seed = static_cast<std::uint64_t>(o.seed);
     budget.higher = o.higher;
     ScenePreview preview = previewScene(scene, lens, o.layers, budget);
-    // The light's own image is 10⁴–10⁶ times brighter than its ghosts: the PNG is exposed for the
-    // ghosts (two stops under the ghost layer's auto exposure, so that overlapping ghosts keep their
-    // colour) and the light clips, as a photograph of a flare does.
-    const double pngExposure =
-        o.png.empty() ? 0.0
-                      : 0.25 * autoExposure(rgbLayerFromXyz("ghost", preview.ghosts, preview.widthPx, preview.heightPx));
+    // The light's own image is 10⁴–10⁶ times brighter than its ghosts: unless --exposure says
+    // otherwise, the PNG is exposed for the ghosts and the light clips (pngExposure, Output.h).
+    const double exposure =
+        o.pngGiven ? pngExposure(o.exposureStops,
+                                 rgbLayerFromXyz("ghost", preview.ghosts, preview.widthPx, preview.heightPx), "preview",
+                                 o.quiet)
+                   : 0.0;
     const std::vector<ImageLayer> layers = previewLayers(preview, o.layers);
     // Per-ghost layers (ghost_...) at half precision (11 significant bits, what
     // compositing uses), which halves the file: as half floats where the layer's values fit half's
@@ -81,7 +85,7 @@ void run(const PreviewCommandOptions& o) {
         {"lens", lens.name()},
     };
     writeExr(outputs, o.exr, layers, metadata, storage);
-    if (o.pngGiven) writePng(outputs, o.png, layers.front(), pngExposure);
+    if (o.pngGiven) writePng(outputs, o.png, layers.front(), exposure);
     outputs.commit();
 
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -107,6 +111,7 @@ void addPreviewCommand(CLI::App& app) {
     preview->add_option("SCENE", o->scene, "scene file (JSON); default: the embedded default scene");
     preview->add_option("-o,--output", o->exr, "EXR file to write")->required();
     preview->add_option("--png", o->png, "also write a tone-mapped PNG");
+    addExposureOption(preview, o->exposureStops);
     preview->add_flag("--layers", o->layers,
                       "add layers: direct, starburst (the direct image diffracted), ghost (32-bit float) and one per ghost (ghost_03_07.R/G/B, half precision)");
     preview->add_flag("--no-diffraction", o->noDiffraction,

@@ -500,6 +500,12 @@ std::string stem(const std::string& path) {
 
 }  // namespace
 
+void parseLensHeaderLine(LensPrescription& p, std::string_view text, const std::string& fileName, int line) {
+    const std::string_view trimmed = trim(text);
+    if (trimmed.empty()) throw InputError(fileName, line, "an empty header line");
+    parseHeader(Parser(fileName), p, Line{line, trimmed});
+}
+
 LensPrescription parseLensText(std::string_view text, const std::string& fileName) {
     const Parser parser(fileName);
     LensPrescription p;
