@@ -71,13 +71,18 @@ std::vector<float> convolve(const FftPlan& plan, const std::vector<float>& image
 }
 
 // The crop's energy projected across a spike, convolved with the spike's sinc² profile and the
-// receiving pixel's width: a density per pixel across the line, on bins of kProfileBinPx.
+// receiving pixel's width: a density per pixel across the line, on bins of kProfileBinPx, over a
+// band reaching kernelExtent beyond the crop. Every crop point's whole sinc² reaches every bin of
+// the band (not renormalised: the sinc²'s share beyond the band is the far tail's, pixelTail).
 struct TransverseProfile {
     double originPx = 0.0;  // the first bin's centre
     std::vector<double> density;
 
     std::vector<double> cumulative;  // ∫ density up to each bin's centre
 
+    // Where the density is complete (the box filter leaves the two end bins at each side empty).
+    double bandLo() const { return originPx + 2.0 * kProfileBinPx; }
+    double bandHi() const { return originPx + (density.size() - 3.0) * kProfileBinPx; }
     double at(double t) const {
         const double x = (t - originPx) / kProfileBinPx;
         if (x <= 0.0 || x >= density.size() - 1.0) return 0.0;
@@ -107,8 +112,8 @@ TransverseProfile transverseProfile(const std::vector<glm::dvec2>& pointsPx, con
     double extent = 0.0;
     for (const glm::dvec2& p : pointsPx) extent = std::max(extent, std::abs(glm::dot(p, acrossDir)));
     const double kernelExtent = std::min(64.0, 40.0 * sincWidthPx) + 1.0;
-    const int kernelHalf = static_cast<int>(std::ceil(kernelExtent / kProfileBinPx));
-    const int half = static_cast<int>(std::ceil((extent + 1.0) / kProfileBinPx)) + kernelHalf + 4;
+    const int half = static_cast<int>(std::ceil((extent + kernelExtent + 1.0) / kProfileBinPx)) + 4;
+    const int kernelHalf = 2 * half;  // from any crop point to any bin of the band
     std::vector<double> histogram(2 * half + 1, 0.0);
     for (size_t i = 0; i < pointsPx.size(); ++i) {
         const double x = glm::dot(pointsPx[i], acrossDir) / kProfileBinPx + half;
@@ -119,27 +124,29 @@ TransverseProfile transverseProfile(const std::vector<glm::dvec2>& pointsPx, con
     // sinc² across the spike, integrated over each bin exactly; then the pixel's width (a box of
     // four bins, its ends linearly shared).
     std::vector<double> kernel(2 * kernelHalf + 1);
-    double sum = 0.0;
-    for (int j = -kernelHalf; j <= kernelHalf; ++j) {
+    for (int j = -kernelHalf; j <= kernelHalf; ++j)
         kernel[j + kernelHalf] = sincSquaredCumulative((j + 0.5) * kProfileBinPx / sincWidthPx) -
                                  sincSquaredCumulative((j - 0.5) * kProfileBinPx / sincWidthPx);
-        sum += kernel[j + kernelHalf];
-    }
-    for (double& k : kernel) k /= sum;
     const double box[5] = {0.125, 0.25, 0.25, 0.25, 0.125};
+    const int bins = static_cast<int>(histogram.size());
     std::vector<double> blurred(histogram.size(), 0.0), density(histogram.size(), 0.0);
-    for (int i = 0; i < static_cast<int>(histogram.size()); ++i) {
+    for (int i = 0; i < bins; ++i) {
         if (histogram[i] == 0.0) continue;
-        for (int j = -kernelHalf; j <= kernelHalf; ++j)
-            if (i + j >= 0 && i + j < static_cast<int>(blurred.size())) blurred[i + j] += histogram[i] * kernel[j + kernelHalf];
+        for (int j = 0; j < bins; ++j) blurred[j] += histogram[i] * kernel[j - i + kernelHalf];
     }
-    for (int i = 2; i + 2 < static_cast<int>(blurred.size()); ++i)
+    for (int i = 2; i + 2 < bins; ++i)
         for (int j = -2; j <= 2; ++j) density[i] += blurred[i + j] * box[j + 2];
     for (double& d : density) d /= kProfileBinPx;
     std::vector<double> cumulative(density.size(), 0.0);
     for (size_t i = 1; i < density.size(); ++i)
         cumulative[i] = cumulative[i - 1] + 0.5 * kProfileBinPx * (density[i - 1] + density[i]);
     return {-half * kProfileBinPx, std::move(density), std::move(cumulative)};
+}
+
+// Beyond the band the crop is a point: the share of a unit sinc² of width `widthPx` in the pixel
+// whose centre lies t px across the line (its width one pixel, as the box above).
+double pixelTail(double t, double widthPx) {
+    return sincSquaredCumulative((t + 0.5) / widthPx) - sincSquaredCumulative((t - 0.5) / widthPx);
 }
 
 }  // namespace
@@ -293,70 +300,51 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
             for (int c = 0; c < 3; ++c)
                 profiles[s][c] = transverseProfile(cropPoints, cropEnergies[c], spikes[s].transversePx,
                                                    spikes[s].transverseWidthPx[c]);
-        // Row by row (each row's pixels get their additions in a fixed order: deterministic): the
-        // halo everywhere, then each spike over the band of the row where its profile is not zero.
+        // Row by row (each row's pixels get their additions in a fixed order: deterministic), every
+        // pixel of the frame: the halo, each spike (the crop's profile within its band, the point
+        // tail of its sinc² beyond) and the corners' interference. The spikes' tails and the
+        // corners are what lights the frame between the spikes: they fall as 1/r⁴ and reach every
+        // pixel, none is cut off.
         const bool halo = aperture->smoothLengthMm() > 0.0;
+        const bool corners = !aperture->corners().empty();
         tbb::parallel_for(0, height, [&](int y) {
             double rowY = 0.0;
             const size_t row = static_cast<size_t>(y) * width;
-            auto add = [&](int x, const glm::dvec3& value) {
+            for (int x = 0; x < width; ++x) {
+                const glm::dvec2 offset = glm::dvec2(x + 0.5, y + 0.5) - cropCentre;
+                const double w = smoothstep((glm::length(offset) - taperStart) / taperWidth);
+                if (w <= 0.0) continue;
+                glm::dvec3 value{0.0};
+                if (halo) value += psf.smoothPerPixel(offset) * cropEnergy;
+                if (corners) value += psf.cornerPerPixel(offset) * cropEnergy;
+                const double r2 = glm::dot(offset, offset);
+                for (size_t s = 0; s < spikes.size(); ++s) {
+                    const DiffractionPsf::Spike& spike = spikes[s];
+                    // The envelope (k·n)²/|k|⁴: 1/r² along the line, falling to 0 across it.
+                    const double along = glm::dot(offset, spike.directionPx);
+                    const double t = glm::dot(offset, spike.transversePx);
+                    const double envelope = along * along / (r2 * r2);
+                    const double spread = along * (spike.fanToRad - spike.fanFromRad);
+                    // The fan in pieces of at most 4 px of transverse offset, each from the profile
+                    // where it lies in the band, else from the point tail.
+                    const int pieces = std::clamp(static_cast<int>(std::ceil(std::abs(spread) / 4.0)), 1, 16);
+                    const double step = (spike.fanToRad - spike.fanFromRad) / pieces;
+                    for (int c = 0; c < 3; ++c) {
+                        const TransverseProfile& profile = profiles[s][c];
+                        double share = 0.0;
+                        for (int p = 0; p < pieces; ++p) {
+                            const double from = spike.fanFromRad + p * step, to = from + step;
+                            const double centre = t - along * 0.5 * (from + to);
+                            share += centre > profile.bandLo() && centre < profile.bandHi()
+                                         ? profile.fanned(t, along, from, to)
+                                         : cropEnergy[c] * pixelTail(centre, spike.transverseWidthPx[c]);
+                        }
+                        value[c] += spike.lineDensity[c] * envelope * share / pieces;
+                    }
+                }
+                value *= w;
                 for (int c = 0; c < 3; ++c) result.xyz[3 * (row + x) + c] += static_cast<float>(value[c]);
                 rowY += value.y;
-            };
-            auto taper = [&](const glm::dvec2& offset) {
-                return smoothstep((glm::length(offset) - taperStart) / taperWidth);
-            };
-            if (halo)
-                for (int x = 0; x < width; ++x) {
-                    const glm::dvec2 offset = glm::dvec2(x + 0.5, y + 0.5) - cropCentre;
-                    const double w = taper(offset);
-                    if (w > 0.0) add(x, w * psf.smoothPerPixel(offset) * cropEnergy);
-                }
-            for (size_t s = 0; s < spikes.size(); ++s) {
-                const glm::dvec2 across = spikes[s].transversePx;
-                // The pixels of this row that a line of the fan passes within the profiles' reach
-                // of: across(x) = (x + ½ − c.x)·t.x + (y + ½ − c.y)·t.y inside [lo, hi] for the
-                // fan's two extreme lines (t turned by φ), and everything between them.
-                double lo = 1e300, hi = -1e300;
-                for (int c = 0; c < 3; ++c) {
-                    lo = std::min(lo, profiles[s][c].originPx);
-                    hi = std::max(hi, profiles[s][c].originPx + kProfileBinPx * profiles[s][c].density.size());
-                }
-                double from = 1e300, to = -1e300;
-                bool wholeRow = false;
-                for (const double phi : {spikes[s].fanFromRad, spikes[s].fanToRad}) {
-                    const glm::dvec2 t = std::cos(phi) * across - std::sin(phi) * spikes[s].directionPx;
-                    const double rowPart = (y + 0.5 - cropCentre.y) * t.y;
-                    if (std::abs(t.x) < 1e-9) {
-                        wholeRow = wholeRow || (rowPart >= lo && rowPart <= hi);
-                        continue;
-                    }
-                    const double a = cropCentre.x - 0.5 + (lo - rowPart) / t.x;
-                    const double b = cropCentre.x - 0.5 + (hi - rowPart) / t.x;
-                    from = std::min(from, std::min(a, b));
-                    to = std::max(to, std::max(a, b));
-                }
-                int x0 = 0, x1 = width - 1;
-                if (!wholeRow) {
-                    if (from > to) continue;
-                    x0 = std::max(0, static_cast<int>(std::floor(from)));
-                    x1 = std::min(width - 1, static_cast<int>(std::ceil(to)));
-                }
-                for (int x = x0; x <= x1; ++x) {
-                    const glm::dvec2 offset = glm::dvec2(x + 0.5, y + 0.5) - cropCentre;
-                    const double w = taper(offset);
-                    if (w <= 0.0) continue;
-                    // The envelope (k·n)²/|k|⁴: 1/r² along the line, falling to 0 across it.
-                    const double along = glm::dot(offset, spikes[s].directionPx);
-                    const double t = glm::dot(offset, across);
-                    const double r2 = glm::dot(offset, offset);
-                    const double envelope = w * along * along / (r2 * r2);
-                    glm::dvec3 value;
-                    for (int c = 0; c < 3; ++c)
-                        value[c] = spikes[s].lineDensity[c] * envelope *
-                                   profiles[s][c].fanned(t, along, spikes[s].fanFromRad, spikes[s].fanToRad);
-                    add(x, value);
-                }
             }
             inFrameRows[y] += rowY;
         });
