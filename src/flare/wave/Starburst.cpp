@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numbers>
 #include <optional>
 #include <stdexcept>
 
@@ -18,6 +19,7 @@ namespace flare {
 
 namespace {
 
+constexpr double kPi = std::numbers::pi;
 constexpr double kProfileBinPx = 0.25;  // bins of the far part's transverse profiles
 
 double smoothstep(double t) {
@@ -144,9 +146,23 @@ TransverseProfile transverseProfile(const std::vector<glm::dvec2>& pointsPx, con
 }
 
 // Beyond the band the crop is a point: the share of a unit sinc² of width `widthPx` in the pixel
-// whose centre lies t px across the line (its width one pixel, as the box above).
+// whose centre lies t px across the line (its width one pixel, as the box above). Beyond four
+// widths sincSquaredCumulative is the fringe average 1 − 1/(2π²z), which gives w/(2π²(t² − ¼)).
+constexpr double kAveragedTailWidths = 4.0;
 double pixelTail(double t, double widthPx) {
+    if (std::abs(t) - 0.5 > kAveragedTailWidths * widthPx) return widthPx / (2.0 * kPi * kPi * (t * t - 0.25));
     return sincSquaredCumulative((t + 0.5) / widthPx) - sincSquaredCumulative((t - 0.5) / widthPx);
+}
+// The mean over the lines of a fan passing at offsets from tA to tB (all on one side, beyond four
+// widths) of that averaged tail, without its factor w/(2π²): of 1/(y² − ¼), whose primitive is
+// ln|(y − ½)/(y + ½)|; a narrow fan (most of the frame) by the midpoint and its curvature term,
+// f'' Δ²/24 (the next term is below 1e-4 of f for Δ < |y|/5).
+double fannedTailShape(double tA, double tB) {
+    const double spread = std::abs(tB - tA), mid = 0.5 * (tA + tB);
+    const double y2 = mid * mid, inverse = 1.0 / (y2 - 0.25);
+    if (spread < 0.2 * (std::min(std::abs(tA), std::abs(tB)) - 0.5))
+        return inverse + (6.0 * y2 + 0.5) * inverse * inverse * inverse * spread * spread / 24.0;
+    return std::log(std::abs((tB - 0.5) * (tA + 0.5) / ((tB + 0.5) * (tA - 0.5)))) / (tB - tA);
 }
 
 }  // namespace
@@ -307,30 +323,83 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
         // pixel, none is cut off.
         const bool halo = aperture->smoothLengthMm() > 0.0;
         const bool corners = !aperture->corners().empty();
+        // Per spike, the band any channel's profile covers, and the widest sinc².
+        std::vector<glm::dvec2> bands(spikes.size());
+        std::vector<double> widest(spikes.size());
+        for (size_t s = 0; s < spikes.size(); ++s) {
+            bands[s] = {1e300, -1e300};
+            for (int c = 0; c < 3; ++c) {
+                bands[s].x = std::min(bands[s].x, profiles[s][c].bandLo());
+                bands[s].y = std::max(bands[s].y, profiles[s][c].bandHi());
+            }
+            widest[s] = std::max({spikes[s].transverseWidthPx.x, spikes[s].transverseWidthPx.y, spikes[s].transverseWidthPx.z});
+        }
+        // The averaged tail's factor w/(2π²), with the line's density and the crop's energy.
+        std::vector<glm::dvec3> tailScale(spikes.size());
+        for (size_t s = 0; s < spikes.size(); ++s)
+            tailScale[s] = spikes[s].lineDensity * cropEnergy * spikes[s].transverseWidthPx / (2.0 * kPi * kPi);
         tbb::parallel_for(0, height, [&](int y) {
-            double rowY = 0.0;
             const size_t row = static_cast<size_t>(y) * width;
+            // Per pixel of the row: the taper's weight, 1/r⁴ and the sum; each spike is added over
+            // the whole row (its cheap far tail first, the pixels near its line after).
+            std::vector<double> taper(width), inverseR4(width);
+            std::vector<glm::dvec3> value(width, glm::dvec3(0.0));
+            std::vector<int> nearLine;
             for (int x = 0; x < width; ++x) {
                 const glm::dvec2 offset = glm::dvec2(x + 0.5, y + 0.5) - cropCentre;
-                const double w = smoothstep((glm::length(offset) - taperStart) / taperWidth);
-                if (w <= 0.0) continue;
-                glm::dvec3 value{0.0};
-                if (halo) value += psf.smoothPerPixel(offset) * cropEnergy;
-                if (corners) value += psf.cornerPerPixel(offset) * cropEnergy;
                 const double r2 = glm::dot(offset, offset);
-                for (size_t s = 0; s < spikes.size(); ++s) {
-                    const DiffractionPsf::Spike& spike = spikes[s];
+                taper[x] = smoothstep((std::sqrt(r2) - taperStart) / taperWidth);
+                inverseR4[x] = taper[x] > 0.0 ? 1.0 / (r2 * r2) : 0.0;
+            }
+            const double dy = y + 0.5 - cropCentre.y;
+            for (size_t s = 0; s < spikes.size(); ++s) {
+                const DiffractionPsf::Spike& spike = spikes[s];
+                const double fanWidth = spike.fanToRad - spike.fanFromRad;
+                nearLine.clear();
+                for (int x = 0; x < width; ++x) {
+                    if (!(taper[x] > 0.0)) continue;
+                    const double dx = x + 0.5 - cropCentre.x;
                     // The envelope (k·n)²/|k|⁴: 1/r² along the line, falling to 0 across it.
-                    const double along = glm::dot(offset, spike.directionPx);
-                    const double t = glm::dot(offset, spike.transversePx);
-                    const double envelope = along * along / (r2 * r2);
-                    const double spread = along * (spike.fanToRad - spike.fanFromRad);
-                    // The fan in pieces of at most 4 px of transverse offset, each from the profile
-                    // where it lies in the band, else from the point tail.
-                    const int pieces = std::clamp(static_cast<int>(std::ceil(std::abs(spread) / 4.0)), 1, 16);
-                    const double step = (spike.fanToRad - spike.fanFromRad) / pieces;
+                    const double along = dx * spike.directionPx.x + dy * spike.directionPx.y;
+                    const double t = dx * spike.transversePx.x + dy * spike.transversePx.y;
+                    const double tA = t - along * spike.fanFromRad, tB = t - along * spike.fanToRad;
+                    const double nearest = std::min(std::abs(tA), std::abs(tB)) - 0.5;
+                    // Wholly beyond the band and four widths (most of the frame), a narrow fan: the
+                    // averaged tail's mean over it by fannedTailShape's midpoint rule.
+                    if ((std::min(tA, tB) > bands[s].y || std::max(tA, tB) < bands[s].x) &&
+                        nearest > kAveragedTailWidths * widest[s] && std::abs(along * fanWidth) < 0.2 * nearest) {
+                        const double mid = 0.5 * (tA + tB), y2 = mid * mid, inverse = 1.0 / (y2 - 0.25);
+                        const double spread2 = along * along * fanWidth * fanWidth;
+                        const double shape = inverse + (6.0 * y2 + 0.5) * inverse * inverse * inverse * spread2 / 24.0;
+                        value[x] += tailScale[s] * (along * along * inverseR4[x] * shape);
+                    } else {
+                        nearLine.push_back(x);
+                    }
+                }
+                for (const int x : nearLine) {
+                    const double dx = x + 0.5 - cropCentre.x;
+                    const double along = dx * spike.directionPx.x + dy * spike.directionPx.y;
+                    const double t = dx * spike.transversePx.x + dy * spike.transversePx.y;
+                    const double envelope = along * along * inverseR4[x];
+                    const double tA = t - along * spike.fanFromRad, tB = t - along * spike.fanToRad;
+                    // Wholly beyond the band: the averaged tail's mean over a wide fan (closed form);
+                    // wholly inside it: the profile's; across the band's edge, the fan in pieces of
+                    // at most 4 px of transverse offset, each from the profile where it lies in the
+                    // band, else from the point tail.
+                    if ((std::min(tA, tB) > bands[s].y || std::max(tA, tB) < bands[s].x) &&
+                        std::min(std::abs(tA), std::abs(tB)) - 0.5 > kAveragedTailWidths * widest[s]) {
+                        value[x] += tailScale[s] * (envelope * fannedTailShape(tA, tB));
+                        continue;
+                    }
+                    const int pieces = std::clamp(static_cast<int>(std::ceil(std::abs(along * fanWidth) / 4.0)), 1, 16);
+                    const double step = fanWidth / pieces;
                     for (int c = 0; c < 3; ++c) {
                         const TransverseProfile& profile = profiles[s][c];
+                        if (std::min(tA, tB) > profile.bandLo() && std::max(tA, tB) < profile.bandHi()) {
+                            value[x][c] += spike.lineDensity[c] * envelope *
+                                           profile.fanned(t, along, spike.fanFromRad, spike.fanToRad);
+                            continue;
+                        }
                         double share = 0.0;
                         for (int p = 0; p < pieces; ++p) {
                             const double from = spike.fanFromRad + p * step, to = from + step;
@@ -339,12 +408,19 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
                                          ? profile.fanned(t, along, from, to)
                                          : cropEnergy[c] * pixelTail(centre, spike.transverseWidthPx[c]);
                         }
-                        value[c] += spike.lineDensity[c] * envelope * share / pieces;
+                        value[x][c] += spike.lineDensity[c] * envelope * share / pieces;
                     }
                 }
-                value *= w;
-                for (int c = 0; c < 3; ++c) result.xyz[3 * (row + x) + c] += static_cast<float>(value[c]);
-                rowY += value.y;
+            }
+            double rowY = 0.0;
+            for (int x = 0; x < width; ++x) {
+                if (!(taper[x] > 0.0)) continue;
+                const glm::dvec2 offset = glm::dvec2(x + 0.5, y + 0.5) - cropCentre;
+                if (halo) value[x] += psf.smoothPerPixel(offset) * cropEnergy;
+                if (corners) value[x] += psf.cornerPerPixel(offset) * cropEnergy;
+                const glm::dvec3 v = taper[x] * value[x];
+                for (int c = 0; c < 3; ++c) result.xyz[3 * (row + x) + c] += static_cast<float>(v[c]);
+                rowY += v.y;
             }
             inFrameRows[y] += rowY;
         });
