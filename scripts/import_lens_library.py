@@ -10,7 +10,8 @@ Every converted lens is checked with `flare lens check` (load, EFL, stop, axial 
 fail, and those set aside before (teleconverters, mirror lenses, duplicates, unusable glass data), go
 to set-aside.json with their cause. Zoom lenses whose patent table gives several zoom states are
 merged into one file with named positions (--lensvisualizer: the zoom states of the patent table).
-Last, scripts/library_names.py keeps every name true to its prescription (renames or scales).
+Then scripts/merge_zoom_states.py adds the states of variable-aperture zooms (an f-number per state),
+and last scripts/library_names.py keeps every name true to its prescription (renames or scales).
 
 Usage (the FlareSim folder from a checkout or `git archive` of the collection):
     /usr/bin/python3 scripts/import_lens_library.py --flaresim FLARESIM/lenses --source-commit HASH \\
@@ -641,8 +642,14 @@ def main():
     finally:
         shutil.rmtree(staging, ignore_errors=True)
 
-    # Names true to the prescriptions: scale known normalised examples, rename the rest.
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    # Zoom states that need an f-number per state (variable-aperture zooms), from the same tables.
+    if args.lensvisualizer:
+        import merge_zoom_states
+        merged, failed = merge_zoom_states.apply(args.out, args.lensvisualizer, args.flare)
+        print(f"  zoom states merged into {len(merged)} more files; {len(failed)} merges failed their checks")
+
+    # Names true to the prescriptions: scale known normalised examples, rename the rest.
     import library_names
     for old, new, problem, how in library_names.apply(args.out):
         print(f"  {how} {old} -> {new} ({problem})")

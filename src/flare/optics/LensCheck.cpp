@@ -126,7 +126,9 @@ LensCheckReport checkLens(const LensPrescription& prescription) {
         // at the faster of the two that the lens reaches (wide open without a stated f-number).
         double fanFNumber = para.fNumber * (1.0 + 1e-9);
         if (prescription.fNumber) {
-            const double statedFNumber = *prescription.fNumber;
+            const double statedFNumber = prescription.zoomPositions.empty()
+                                             ? *prescription.fNumber
+                                             : prescription.zoomPositions[i].fNumber.value_or(*prescription.fNumber);
             if (para.fNumber > statedFNumber + kFNumberRounding) {
                 report.failures.push_back({"stop", zoom,
                                            format("the stop opens to f/%.3f, slower than the stated f/%.2f",

@@ -6,7 +6,8 @@
 // Per zoom position (or once for a fixed focal length):
 //   efl      the paraxial EFL at the d line lies within kEflRelativeTolerance of the focal length
 //            the file states (focal_length_mm, or the position's value on the zoom line);
-//   stop     the aperture stop opens to the stated f-number (f_number) up to its rounding: the
+//   stop     the aperture stop opens to the stated f-number (f_number, or the position's own for a
+//            variable-aperture zoom) up to its rounding: the
 //            paraxial f-number with the stop row's semi-aperture is at most f_number + kFNumberRounding;
 //   ray_fan  real rays from an axial object at infinity, aimed at kFanPupilFractions of the round
 //            opening of the stated f-number (or of the wide-open stop, if that is slower within the

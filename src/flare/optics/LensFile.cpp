@@ -282,8 +282,29 @@ void parseHeader(const Parser& parser, LensPrescription& p, const Line& line) {
         requireSingle();
         p.focalLengthMm = parser.positive(n, tokens[1], "focal_length_mm");
     } else if (key == "f_number") {
-        requireSingle();
-        p.fNumber = parser.positive(n, tokens[1], "f_number");
+        requireValue();
+        if (tokens[1].find('=') == std::string_view::npos) {
+            requireSingle();
+            p.fNumber = parser.positive(n, tokens[1], "f_number");
+        } else {
+            // A variable-aperture zoom: the stated f-number at each position (as `gap` values).
+            if (p.zoomPositions.empty()) parser.error(n, "f_number per zoom position must follow the zoom line");
+            std::vector<std::optional<double>> values(p.zoomPositions.size());
+            for (size_t i = 1; i < tokens.size(); ++i) {
+                const auto [k, v] = parser.keyValue(n, tokens[i]);
+                const auto it = std::find_if(p.zoomPositions.begin(), p.zoomPositions.end(),
+                                             [&](const ZoomPosition& z) { return z.name == k; });
+                if (it == p.zoomPositions.end()) parser.error(n, "f_number: unknown zoom position '" + k + "'");
+                std::optional<double>& value = values[it - p.zoomPositions.begin()];
+                if (value) parser.error(n, "f_number: zoom position '" + k + "' is given twice");
+                value = parser.positive(n, v, "f_number");
+            }
+            for (size_t i = 0; i < values.size(); ++i) {
+                if (!values[i]) parser.error(n, "f_number: no value for zoom position '" + p.zoomPositions[i].name + "'");
+                p.zoomPositions[i].fNumber = values[i];
+            }
+            p.fNumber = p.zoomPositions[0].fNumber;
+        }
     } else if (key == "object_distance_mm") {
         requireSingle();
         p.objectDistanceMm = parser.number(n, tokens[1], "object_distance_mm");

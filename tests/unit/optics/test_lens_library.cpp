@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <map>
@@ -91,7 +92,15 @@ TEST(LensLibrary, CoversMakersAndKinds) {
     }
     EXPECT_GE(makers.size(), 20u);
     EXPECT_GE(zooms, 100);
-    EXPECT_GE(merged, 1);
+    // 7 constant-aperture zooms merged by the import, 11 variable-aperture ones by
+    // scripts/merge_zoom_states.py (issue 28, item 2): their f-number grows from wide to tele.
+    EXPECT_GE(merged, 18);
+    const LibraryLens* tamron = library.find("tamron-sp-70-300mm-f4-5.6-di-vc-usd");
+    ASSERT_NE(tamron, nullptr);
+    ASSERT_EQ(tamron->zoomPositions.size(), 3u);
+    const LensPrescription variable = loadLensFile(tamron->path);
+    ASSERT_TRUE(variable.zoomPositions.front().fNumber && variable.zoomPositions.back().fNumber);
+    EXPECT_LT(*variable.zoomPositions.front().fNumber + 1.0, *variable.zoomPositions.back().fNumber);
     EXPECT_GE(fisheyes, 3);
     EXPECT_GE(superTele, 3);
     EXPECT_GE(telezoom28, 1);
@@ -300,6 +309,42 @@ TEST(LensLibraryCli, ListSearchAndCheck) {
     EXPECT_EQ(dat.out.find("+inf"), std::string::npos) << dat.out;
     EXPECT_NE(dat.out.find("note: efl: the file states no focal length"), std::string::npos) << dat.out;
     EXPECT_EQ(dat.out.find("FAILED"), std::string::npos) << dat.out;
+}
+
+// A variable-aperture zoom states an f-number per position (`f_number wide=… tele=…`): the stop
+// check and the ray fan use each position's, and a position whose stop cannot open to its own
+// f-number fails there alone.
+TEST(LensCheck, VariableApertureZoomIsCheckedAtEachPositionsFNumber) {
+    const std::string text = embeddedText("zoom-24-70mm");
+    const LensCheckReport constant = checkLens(parseLensText(text, "zoom.lens"));
+    ASSERT_EQ(constant.positions.size(), 3u);
+    // Each position stated at its own wide-open f-number rounded up to 0.01, or at the file's f/2.91
+    // where the stop opens further (its stop is sized for the tele end): all pass.
+    std::string perPosition = "f_number       ";
+    const char* names[] = {"wide", "mid", "tele"};
+    for (int i = 0; i < 3; ++i)
+        perPosition += std::string(" ") + names[i] + "=" +
+                       std::to_string(std::max(2.91, std::ceil(constant.positions[i].wideOpenFNumber * 100.0) / 100.0));
+    const std::string variable = replaced(text, "default_coating", perPosition + "\ndefault_coating");
+    const LensPrescription p = parseLensText(replaced(variable, "f_number        2.91\n", ""), "variable.lens");
+    ASSERT_TRUE(p.zoomPositions[2].fNumber);
+    EXPECT_EQ(p.fNumber, p.zoomPositions[0].fNumber);
+    const LensCheckReport ok = checkLens(p);
+    EXPECT_TRUE(ok.ok()) << (ok.failures.empty() ? "" : ok.failures[0].detail);
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(ok.positions[i].fanFNumber, *p.zoomPositions[i].fNumber, 1e-9);
+    // The tele position stated 0.2 faster than its stop opens: a stop failure there only.
+    LensPrescription fast = p;
+    fast.zoomPositions[2].fNumber = constant.positions[2].wideOpenFNumber - 0.2;
+    const LensCheckReport broken = checkLens(fast);
+    ASSERT_EQ(broken.failures.size(), 1u);
+    EXPECT_EQ(broken.failures[0].check, "stop");
+    EXPECT_EQ(broken.failures[0].zoom, "tele");
+    // Per-position values need the zoom line first and every position.
+    EXPECT_THROW(parseLensText(replaced(text, "zoom            wide=", "f_number wide=2.9 mid=3 tele=3.5\nzoom            wide="),
+                               "x.lens"),
+                 InputError);
+    EXPECT_THROW(parseLensText(replaced(variable, perPosition, perPosition.substr(0, perPosition.find(" tele="))), "x.lens"),
+                 InputError);
 }
 
 // The reading of names (LensName.h) on the library's naming styles.
