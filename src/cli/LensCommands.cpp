@@ -98,6 +98,7 @@ nlohmann::json libraryLensJson(const LibraryLens& lens) {
     }
     if (lens.zoomRangeMm)
         j["zoom_range_mm"] = {lens.zoomRangeMm->first, lens.zoomRangeMm->second};
+    if (!lens.renamedFrom.empty()) j["renamed_from"] = lens.renamedFrom;
     return j;
 }
 

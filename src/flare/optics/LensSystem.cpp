@@ -149,7 +149,7 @@ LensSystem LensSystem::build(const LensPrescription& p, const LensState& state) 
         throw InputError(p.sourceFile, 0,
                          "zoom '" + state.zoom + "' asked, but the lens has no zoom positions: the file holds one state, " +
                              "paraxial EFL " + efl + " mm" + (p.focalLengthMm ? " (stated " + formatMm(*p.focalLengthMm) + " mm)" : "") +
-                             "; drop --zoom");
+                             ", and cannot be zoomed");
     }
     ZoomWeights zoom = resolveZoom(p, state.zoom);
     if (zoom.solveForEflMm) zoom = solveZoomForEfl(p, *zoom.solveForEflMm, state);
