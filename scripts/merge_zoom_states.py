@@ -22,6 +22,7 @@ Usage:  /usr/bin/python3 scripts/merge_zoom_states.py lenses/library LENSVISUALI
 import json
 import os
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -156,7 +157,10 @@ def apply(folder, git_dir, flare):
         with open(staged, "w", encoding="utf-8") as f:
             f.write(new_text)
         candidates.append((entry, path, staged, new_text, names, table))
-    results = imp.check_files(flare, [c[2] for c in candidates]) if candidates else {}
+    try:
+        results = imp.check_files(flare, [c[2] for c in candidates]) if candidates else {}
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
     for entry, path, staged, new_text, names, table in candidates:
         result = results[staged]
         if not result["ok"]:
