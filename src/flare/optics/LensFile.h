@@ -18,6 +18,10 @@ LensPrescription loadLensFile(const std::string& path);
 // (LensLibrary.h), whose file is read.
 LensPrescription loadLens(const std::string& pathOrName);
 
+// Why `name` (no file here) names no lens: the shipped names, the library searched and the ids
+// nearest to it (or the id it was renamed to).
+std::string unknownLensProblem(const std::string& name);
+
 // Parses text already in memory; `fileName` is used in error messages and as the source file.
 LensPrescription parseLensText(std::string_view text, const std::string& fileName);
 LensPrescription parsePbrtLensText(std::string_view text, const std::string& fileName);

@@ -154,10 +154,13 @@ std::string resolveLens(const Checker& c, const Node& node, const std::string& b
             if (name == lens.name) return name;
         if (const LibraryLens* lens = LensLibrary::shared().find(name)) return lens->path;
     }
-    c.fail(node.line, "lens",
-           "no lens file '" + file.string() + "'" + (file.string() != value ? " (relative to the scene's folder)" : "") +
-               " and no shipped lens named '" + value + "' (shipped: " + shippedLensNames() +
-               "; nor a library lens of that id: `flare lens list` shows them)");
+    const std::string relative = file.string() != value ? " (relative to the scene's folder)" : "";
+    if (value.find('/') != std::string::npos)
+        c.fail(node.line, "lens",
+               "no lens file '" + file.string() + "'" + relative + " (a shipped lens or library id has no '/')");
+    std::string name = value;
+    if (name.size() > 5 && name.compare(name.size() - 5, 5, ".lens") == 0) name.resize(name.size() - 5);
+    c.fail(node.line, "lens", "no lens file '" + file.string() + "'" + relative + "; " + unknownLensProblem(name));
 }
 
 std::string readFile(const std::string& path) {
