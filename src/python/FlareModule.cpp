@@ -141,7 +141,12 @@ py::dict libraryLensDict(const LibraryLens& lens) {
     d["example"] = lens.example;
     d["collection"] = lens.collection;
     d["file"] = lens.path;
-    if (!lens.zoomPositions.empty()) d["zoom_positions"] = lens.zoomPositions;
+    if (!lens.zoomPositions.empty()) {
+        d["zoom_positions"] = lens.zoomPositions;
+        d["zoom_focal_lengths_mm"] = lens.zoomFocalLengthsMm;
+    }
+    if (lens.zoomRangeMm) d["zoom_range_mm"] = std::vector<double>{lens.zoomRangeMm->first, lens.zoomRangeMm->second};
+    if (!lens.renamedFrom.empty()) d["renamed_from"] = lens.renamedFrom;
     return d;
 }
 
@@ -278,9 +283,11 @@ PYBIND11_MODULE(flare, m) {
     m.def("lens_list", &lensList, py::kw_only(), py::arg("maker") = "", py::arg("focal_mm") = py::none(),
           py::arg("f_number") = py::none(),
           "The library's lenses as `flare lens list --json` lists them (a dict per lens: id, maker, model, name, kind, "
-          "tags, focal_length_mm, focal_range_mm, f_number, patent, example, collection, file, zoom_positions for a "
-          "zoom), filtered as --maker (exact, case-insensitive), --focal (focal_mm: one focal length, or (min, max) "
-          "with None for an open end; a zoom matches when its range overlaps) and --f-number (at least this fast).");
+          "tags, focal_length_mm, focal_range_mm, f_number, patent, example, collection, file, zoom_positions and "
+          "zoom_focal_lengths_mm for a zoom with positions, zoom_range_mm for a file holding one state of a zoom, "
+          "renamed_from for a renamed id), filtered as --maker (exact, case-insensitive), --focal (focal_mm: one focal "
+          "length, or (min, max) with None for an open end; a file matches a focal length it can be set to) and "
+          "--f-number (at least this fast).");
     m.def(
         "lens_search", [](const std::string& text) { return libraryLensList(LensLibrary::shared().search(text)); },
         py::arg("text"),
