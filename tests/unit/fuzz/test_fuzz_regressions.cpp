@@ -58,6 +58,8 @@ int replayAll(const std::vector<fs::path>& files, const Body& body) {
 
 const std::pair<const char*, Body> kTargets[] = {
     {"lens", fuzz::lensInput},
+    {"zmx", fuzz::zmxInput},
+    {"agf", fuzz::agfInput},
     {"scene", fuzz::sceneInput},
     {"exr", fuzz::exrInput},
     {"checkpoint", fuzz::checkpointInput},
@@ -81,6 +83,9 @@ TEST(FuzzRegressions, SeedCorpusRunsThroughTheTargets) {
     EXPECT_GE(replayAll(filesIn(dir / "exr"), fuzz::exrInput), 8);
     EXPECT_EQ(replayAll(filesIn(dir / "checkpoint"), fuzz::checkpointInput), 2);
     EXPECT_GE(replayAll(filesIn(dir / "vdb"), fuzz::vdbInput), 10);
+    // writeGeneratedSeeds checks that each .zmx and .agf seed parses.
+    EXPECT_GE(replayAll(filesIn(dir / "zmx"), fuzz::zmxInput), 10);
+    EXPECT_EQ(replayAll(filesIn(dir / "agf"), fuzz::agfInput), 7);
     EXPECT_GE(replayAll(filesIn(test::sourcePath("volumes"), ".vdb"), fuzz::vdbInput), 4);
     fs::remove_all(dir);
 }
