@@ -404,6 +404,14 @@ int writeGeneratedSeeds(const std::string& dir) {
         file.writePixels(h);
         ++written;
     }
+    {
+        // Overscan: the data window starts left of and above the display window.
+        Imf::Header header(Imath::Box2i(Imath::V2i(0, 0), Imath::V2i(3, 2)), Imath::Box2i(Imath::V2i(-2, -1), Imath::V2i(3, 3)));
+        Imf::RgbaOutputFile file((exrDir / "negative-window.exr").c_str(), header, Imf::WRITE_RGB);
+        file.setFrameBuffer(pixels.data() + (2 + 1 * w), 1, w);
+        file.writePixels(h);
+        ++written;
+    }
     for (const auto& [name, mode] : {std::pair{"tiled", Imf::ONE_LEVEL}, std::pair{"mipmap", Imf::MIPMAP_LEVELS}}) {
         Imf::TiledRgbaOutputFile file((exrDir / (std::string(name) + ".exr")).c_str(), w, h, 4, 4, mode, Imf::ROUND_DOWN,
                                       Imf::WRITE_RGB, 1.0f, Imath::V2f(0.0f, 0.0f), 1.0f, Imf::INCREASING_Y,

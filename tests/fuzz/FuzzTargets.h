@@ -37,7 +37,7 @@ void checkpointInput(std::string_view data);
 void vdbInput(std::string_view data);
 
 // Writes seed inputs that cannot be copied from the source tree: small EXRs (float and half,
-// scanline and tiled, several compressions, layers), a checkpoint and a bare film of the render
+// scanline and tiled, several compressions, layers, offset and negative data windows), a checkpoint and a bare film of the render
 // checkpointInput uses, small .vdb files (float grids as flare writes them, compressed and
 // not, and the grids load() rejects), .zmx files (the shipped lenses and a few library lenses as
 // writeZemax writes them, in UTF-8 and UTF-16, and hand-written files using what the writer never
