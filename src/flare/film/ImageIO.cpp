@@ -7,9 +7,11 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <set>
 #include <stdexcept>
+#include <string>
 #include <system_error>
 #include <thread>
 #include <utility>
@@ -197,8 +199,13 @@ std::vector<ImageLayer> readExr(const std::string& path) {
     try {
         Imf::InputFile file(path.c_str());
         const Imath::Box2i window = file.header().dataWindow();
-        const int width = window.max.x - window.min.x + 1;
-        const int height = window.max.y - window.min.y + 1;
+        // In 64 bits: a window from -2^31 to 2^31 - 1 is 2^32 pixels wide.
+        const std::int64_t width64 = std::int64_t{window.max.x} - window.min.x + 1;
+        const std::int64_t height64 = std::int64_t{window.max.y} - window.min.y + 1;
+        if (width64 > std::numeric_limits<int>::max() || height64 > std::numeric_limits<int>::max())
+            throw std::runtime_error("data window " + std::to_string(width64) + " x " + std::to_string(height64) +
+                                     " pixels is too large");
+        const int width = static_cast<int>(width64), height = static_cast<int>(height64);
 
         // Layers with all three of R, G, B; std::map orders the main layer ("") first.
         std::map<std::string, int> found;
@@ -220,13 +227,15 @@ std::vector<ImageLayer> readExr(const std::string& path) {
         const size_t xStride = 3 * sizeof(float), yStride = xStride * static_cast<size_t>(width);
         for (ImageLayer& layer : layers) {
             layer.rgb.assign(3 * static_cast<size_t>(width) * height, 0.0f);
-            // OpenEXR addresses pixels by absolute (x, y) in the data window.
-            char* origin = reinterpret_cast<char*>(layer.rgb.data()) -
-                           static_cast<ptrdiff_t>(window.min.x) * xStride -
-                           static_cast<ptrdiff_t>(window.min.y) * yStride;
+            // OpenEXR addresses pixels by absolute (x, y) in the data window; Slice::Make takes the
+            // window's first pixel and offsets it in signed 64-bit arithmetic. Offsetting the
+            // pointer here with the size_t strides turned a negative window origin (an overscan
+            // image, or a fuzzed header) into an unsigned offset that wrapped around the address
+            // space (undefined behaviour: tests/data/fuzz/exr/negative-data-window-origin.exr).
+            char* first = reinterpret_cast<char*>(layer.rgb.data());
             for (int c = 0; c < 3; ++c)
                 frameBuffer.insert(channelName(layer.name, c),
-                                   Imf::Slice(Imf::FLOAT, origin + c * sizeof(float), xStride, yStride));
+                                   Imf::Slice::Make(Imf::FLOAT, first + c * sizeof(float), window, xStride, yStride));
         }
         file.setFrameBuffer(frameBuffer);
         file.readPixels(window.min.y, window.max.y);

@@ -107,8 +107,8 @@ AgfCatalog AgfCatalog::parse(std::string_view text, const std::string& fileName,
                 fail(r.line, "NM needs a name, a formula number, a glass code, nd and Vd; found " +
                                  std::to_string(r.values.size()) + " fields");
             double formula = 0.0, nd = 0.0, vd = 0.0;
-            if (!parseNumber(r.values[1], &formula) || formula != std::floor(formula) ||
-                agfCoefficientCount(static_cast<int>(formula)) == 0)
+            // In range before it is converted: a double beyond int's range (1e10) has no int value.
+            if (!parseNumber(r.values[1], &formula) || formula != std::floor(formula) || formula < 1.0 || formula > 13.0)
                 fail(r.line, "glass " + std::string(r.values[0]) + ": unknown dispersion formula '" +
                                  std::string(r.values[1]) + "' (formulas 1 to 13 are known)");
             if (!parseNumber(r.values[3], &nd) || nd < 1.0 || nd > 5.0)
