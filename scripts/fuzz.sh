@@ -2,23 +2,24 @@
 # Builds the libFuzzer targets (clang 16, -fsanitize=fuzzer,address,undefined; tests/fuzz/) in
 # build-fuzz/ and runs one of them for SECONDS seconds. Installs clang 16 first if needed (as root).
 #
-#   scripts/fuzz.sh lens|scene|exr|checkpoint|vdb SECONDS [more libFuzzer arguments, e.g. -jobs=2]
+#   scripts/fuzz.sh lens|zmx|agf|scene|exr|checkpoint|vdb SECONDS [more libFuzzer arguments, e.g. -jobs=2]
 #
 # The corpus grows in build-fuzz/corpus/TARGET, seeded from the source tree (lenses/*.lens and
 # tests/data/*.dat for lens; docs/examples/*.json and tests/data/scenes/*.json for scene; small
 # generated EXRs, a checkpoint and a bare film for exr and checkpoint; small generated .vdb files
-# for vdb, as the shipped volumes/*.vdb are 40-600 kB; and the kept regression
-# inputs tests/data/fuzz/TARGET/*). A crash leaves its input in build-fuzz/artifacts/TARGET/ and
+# for vdb, as the shipped volumes/*.vdb are 40-600 kB; generated .zmx files for zmx, as none is
+# shipped; excerpts of the shipped lenses/glass/*.agf, 400-640 kB each, for agf; and the kept
+# regression inputs tests/data/fuzz/TARGET/*). A crash leaves its input in build-fuzz/artifacts/TARGET/ and
 # the script exits non-zero: copy the input to tests/data/fuzz/TARGET/ (with a descriptive name)
 # and it replays in the default suite (FuzzRegressions.EveryKeptInputReplaysCleanly).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-usage() { echo "usage: scripts/fuzz.sh lens|scene|exr|checkpoint|vdb SECONDS [libFuzzer arguments]" >&2; exit 2; }
+usage() { echo "usage: scripts/fuzz.sh lens|zmx|agf|scene|exr|checkpoint|vdb SECONDS [libFuzzer arguments]" >&2; exit 2; }
 [ $# -ge 2 ] || usage
 target=$1 seconds=$2
 shift 2
-case "$target" in lens|scene|exr|checkpoint|vdb) ;; *) usage ;; esac
+case "$target" in lens|zmx|agf|scene|exr|checkpoint|vdb) ;; *) usage ;; esac
 [[ "$seconds" =~ ^[0-9]+$ ]] || usage
 
 # Installs clang 16 and libFuzzer (and the engine's packages) when missing; a no-op otherwise.
@@ -36,7 +37,7 @@ mkdir -p "$seeds" "$corpus" "$artifacts"
 case "$target" in
   lens) cp lenses/*.lens tests/data/*.dat "$seeds"/ ;;
   scene) cp docs/examples/*.json tests/data/scenes/*.json "$seeds"/ ;;
-  exr | checkpoint | vdb)
+  zmx | agf | exr | checkpoint | vdb)
     build-fuzz/tests/fuzz/flare_fuzz_seeds build-fuzz/seeds/generated >/dev/null
     cp build-fuzz/seeds/generated/"$target"/* "$seeds"/ ;;
 esac

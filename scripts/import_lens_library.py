@@ -10,6 +10,8 @@ Every converted lens is checked with `flare lens check` (load, EFL, stop, axial 
 fail, and those set aside before (teleconverters, mirror lenses, duplicates, unusable glass data), go
 to set-aside.json with their cause. Zoom lenses whose patent table gives several zoom states are
 merged into one file with named positions (--lensvisualizer: the zoom states of the patent table).
+Then scripts/merge_zoom_states.py adds the states of variable-aperture zooms (an f-number per state),
+and last scripts/library_names.py keeps every name true to its prescription (renames or scales).
 
 Usage (the FlareSim folder from a checkout or `git archive` of the collection):
     /usr/bin/python3 scripts/import_lens_library.py --flaresim FLARESIM/lenses --source-commit HASH \\
@@ -620,9 +622,12 @@ def main():
                      "collection": COLLECTION, "source_file": f"lenses/lens_files/{stem}.lens"}
             if zoom_spec:
                 entry["zoom_positions"] = [n for n, _ in zoom_spec["positions"]]
+                entry["zoom_focal_lengths_mm"] = [f for _, f in zoom_spec["positions"]]
                 entry["focal_range_mm"] = [zoom_spec["positions"][0][1], zoom_spec["positions"][-1][1]]
             elif focal_range:
-                entry["focal_range_mm"] = sorted(focal_range)
+                # The file holds one state of this zoom: it can be set to its EFL only, so the
+                # zoom's range is kept apart from what a search by focal length matches.
+                entry["zoom_range_mm"] = sorted(focal_range)
             index.append(entry)
         index.sort(key=lambda e: (e["maker"].lower(), e["focal_length_mm"], e["id"]))
         set_aside.sort(key=lambda e: (e["cause"], e["source_file"]))
@@ -636,6 +641,18 @@ def main():
             f.write("\n")
     finally:
         shutil.rmtree(staging, ignore_errors=True)
+
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    # Zoom states that need an f-number per state (variable-aperture zooms), from the same tables.
+    if args.lensvisualizer:
+        import merge_zoom_states
+        merged, failed = merge_zoom_states.apply(args.out, args.lensvisualizer, args.flare)
+        print(f"  zoom states merged into {len(merged)} more files; {len(failed)} merges failed their checks")
+
+    # Names true to the prescriptions: scale known normalised examples, rename the rest.
+    import library_names
+    for old, new, problem, how in library_names.apply(args.out):
+        print(f"  {how} {old} -> {new} ({problem})")
 
     causes = collections.Counter(e["cause"] for e in set_aside)
     print(f"{len(files)} source files; {len(index)} lenses pass and ship; {len(set_aside)} set aside:")

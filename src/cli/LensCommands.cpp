@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "flare/core/Error.h"
+#include "flare/core/NearestNames.h"
 #include "flare/core/OutputFiles.h"
 #include "flare/core/TextEncoding.h"
 #include "flare/ghosts/GhostRays.h"
@@ -41,9 +42,14 @@ void printLensInfo(const nlohmann::json& j) {
     std::printf("  source               %s\n", j["source"].get<std::string>().c_str());
     if (j.contains("zoom")) {
         const auto& z = j["zoom"];
-        std::printf("  zoom                 %s (nominal %.2f mm)\n",
-                    z["position"].is_null() ? "interpolated" : z["position"].get<std::string>().c_str(),
-                    z["nominal_focal_length_mm"].get<double>());
+        // A named position carries the focal length its source states; a focal length asked for
+        // is the paraxial EFL at the d line the zoom was solved for (LensState::zoom).
+        if (z["position"].is_null())
+            std::printf("  zoom                 between positions, solved for a d-line EFL of %.4f mm\n",
+                        z["nominal_focal_length_mm"].get<double>());
+        else
+            std::printf("  zoom                 %s (stated focal length %.2f mm)\n", z["position"].get<std::string>().c_str(),
+                        z["nominal_focal_length_mm"].get<double>());
     }
     std::printf("  wavelength           %.2f nm\n", j["wavelength_nm"].get<double>());
     std::printf("  EFL                  %.4f mm\n", j["efl_mm"].get<double>());
@@ -86,8 +92,30 @@ nlohmann::json libraryLensJson(const LibraryLens& lens) {
                         {"f_number", lens.fNumber}, {"patent", lens.patent},
                         {"example", lens.example}, {"collection", lens.collection},
                         {"file", lens.path}};
-    if (!lens.zoomPositions.empty()) j["zoom_positions"] = lens.zoomPositions;
+    if (!lens.zoomPositions.empty()) {
+        j["zoom_positions"] = lens.zoomPositions;
+        j["zoom_focal_lengths_mm"] = lens.zoomFocalLengthsMm;
+    }
+    if (lens.zoomRangeMm)
+        j["zoom_range_mm"] = {lens.zoomRangeMm->first, lens.zoomRangeMm->second};
+    if (!lens.renamedFrom.empty()) j["renamed_from"] = lens.renamedFrom;
     return j;
+}
+
+// What the file can be set to: its EFL, or its zoom positions' focal lengths; a file that holds one
+// state of a zoom says so.
+std::string focalText(const LibraryLens& lens) {
+    char buffer[160];
+    if (!lens.zoomPositions.empty()) {
+        std::string text;
+        for (size_t i = 0; i < lens.zoomPositions.size(); ++i) {
+            std::snprintf(buffer, sizeof buffer, "%s%.4g", i ? "/" : "", i < lens.zoomFocalLengthsMm.size() ? lens.zoomFocalLengthsMm[i] : 0.0);
+            text += buffer;
+        }
+        return text + " mm";
+    }
+    std::snprintf(buffer, sizeof buffer, "%.4g mm", lens.focalLengthMm);
+    return buffer;
 }
 
 void printLibraryLenses(const std::vector<const LibraryLens*>& lenses, bool json) {
@@ -98,10 +126,19 @@ void printLibraryLenses(const std::vector<const LibraryLens*>& lenses, bool json
         return;
     }
     for (const LibraryLens* lens : lenses) {
-        char focal[64];
-        if (lens->focalMaxMm > lens->focalMinMm) std::snprintf(focal, sizeof focal, "%g-%g mm", lens->focalMinMm, lens->focalMaxMm);
-        else std::snprintf(focal, sizeof focal, "%g mm", lens->focalLengthMm);
-        std::printf("%-60s %-14s f/%-5g %s\n", lens->id.c_str(), focal, lens->fNumber, lens->name.c_str());
+        std::string note;
+        if (!lens->zoomPositions.empty()) {
+            note = "  [zoom: ";
+            for (size_t i = 0; i < lens->zoomPositions.size(); ++i) note += (i ? ", " : "") + lens->zoomPositions[i];
+            note += "]";
+        } else if (lens->zoomRangeMm) {
+            char buffer[96];
+            std::snprintf(buffer, sizeof buffer, "  [one state of the %g-%g mm zoom]", lens->zoomRangeMm->first,
+                          lens->zoomRangeMm->second);
+            note = buffer;
+        }
+        std::printf("%-60s %-22s f/%-5g %s%s\n", lens->id.c_str(), focalText(*lens).c_str(), lens->fNumber,
+                    lens->name.c_str(), note.c_str());
     }
     std::printf("%zu lens%s\n", lenses.size(), lenses.size() == 1 ? "" : "es");
 }
@@ -128,6 +165,9 @@ LibraryFilter focalRange(const std::string& text, LibraryFilter filter) {
         if (dash + 1 < text.size()) filter.focalMaxMm = number(text.substr(dash + 1));
         if (!filter.focalMinMm && !filter.focalMaxMm)
             throw CLI::ValidationError("--focal", "expected MIN-MAX in mm (e.g. 70-200), got '" + text + "'");
+        if (filter.focalMinMm && filter.focalMaxMm && *filter.focalMinMm > *filter.focalMaxMm)
+            throw CLI::ValidationError("--focal", "MIN is above MAX in '" + text + "' (did you mean " +
+                                                      text.substr(dash + 1) + "-" + text.substr(0, dash) + "?)");
     }
     return filter;
 }
@@ -140,14 +180,22 @@ nlohmann::json checkJson(const std::string& lens, const LensCheckReport* report,
         nlohmann::json positions = nlohmann::json::array();
         for (const LensCheckPosition& p : report->positions)
             positions.push_back({{"zoom", p.zoom},
-                                 {"stated_focal_length_mm", p.statedFocalLengthMm},
+                                 {"stated_focal_length_mm", p.statedFocalLengthMm > 0.0
+                                                                ? nlohmann::json(p.statedFocalLengthMm)
+                                                                : nlohmann::json(nullptr)},
                                  {"efl_mm", p.eflMm},
-                                 {"wide_open_f_number", p.wideOpenFNumber}});
+                                 {"wide_open_f_number", p.wideOpenFNumber},
+                                 {"fan_f_number", p.fanFNumber > 0.0 ? nlohmann::json(p.fanFNumber)
+                                                                     : nlohmann::json(nullptr)}});
         j["positions"] = positions;
         for (const LensCheckFailure& f : report->failures)
             failures.push_back({{"check", f.check}, {"zoom", f.zoom}, {"detail", f.detail}});
     }
     j["failures"] = failures;
+    nlohmann::json notes = nlohmann::json::array();
+    if (report)
+        for (const LensCheckNote& n : report->notes) notes.push_back({{"check", n.check}, {"zoom", n.zoom}, {"detail", n.detail}});
+    j["notes"] = notes;
     return j;
 }
 
@@ -179,11 +227,24 @@ void addLensCommands(CLI::App& app) {
     auto listJson = std::make_shared<bool>(false);
     CLI::App* list = lens->add_subcommand("list", "the lenses of the library (docs/lens-library.md)");
     list->add_option("--maker", filter->maker, "only this maker (e.g. Nikon; case-insensitive)");
-    list->add_option("--focal", *focal, "focal lengths MIN-MAX in mm (a zoom matches if its range overlaps)");
+    list->add_option("--focal", *focal, "focal lengths MIN-MAX in mm: a lens whose EFL (or one of whose zoom positions, or the range between them) lies inside");
     list->add_option("--f-number", filter->maxFNumber, "only lenses at least this fast")->check(CLI::PositiveNumber);
     list->add_flag("--json", *listJson, "print one JSON object with a `lenses` array");
     list->callback([filter, focal, listJson] {
         const LibraryFilter f = focal->empty() ? *filter : focalRange(*focal, *filter);
+        if (!f.maker.empty()) {
+            const std::vector<std::string> makers = LensLibrary::shared().makers();
+            const bool known = std::any_of(makers.begin(), makers.end(), [&](const std::string& m) {
+                return m.size() == f.maker.size() && editDistance(m, f.maker) == 0;
+            });
+            if (!known) {
+                std::string hint;
+                for (const std::string& m : nearestNames(f.maker, makers, 5)) hint += (hint.empty() ? "" : ", ") + m;
+                throw CLI::ValidationError("--maker", "no lens of maker '" + f.maker + "' in the library" +
+                                                          (hint.empty() ? " (`flare lens list` names every lens and its maker)"
+                                                                        : " (did you mean " + hint + "?)"));
+            }
+        }
         printLibraryLenses(LensLibrary::shared().filter(f), *listJson);
     });
 
@@ -218,10 +279,22 @@ void addLensCommands(CLI::App& app) {
             failed += !j["ok"].get<bool>();
             if (!*checkJsonFlag) {
                 std::printf("%s: %s\n", name.c_str(), j["ok"].get<bool>() ? "ok" : "FAILED");
-                for (const auto& f : j["failures"])
-                    std::printf("  %s%s: %s\n", f["check"].get<std::string>().c_str(),
-                                f["zoom"].get<std::string>().empty() ? "" : (" (" + f["zoom"].get<std::string>() + ")").c_str(),
-                                f["detail"].get<std::string>().c_str());
+                for (const auto& p : j["positions"]) {
+                    const std::string zoom = p["zoom"].get<std::string>();
+                    std::printf("  %sEFL %.3f mm", zoom.empty() ? "" : (zoom + ": ").c_str(), p["efl_mm"].get<double>());
+                    if (!p["stated_focal_length_mm"].is_null())
+                        std::printf(" (stated %.3f mm)", p["stated_focal_length_mm"].get<double>());
+                    std::printf(", wide open f/%.3f", p["wide_open_f_number"].get<double>());
+                    if (!p["fan_f_number"].is_null()) std::printf(", ray fan at f/%.3f", p["fan_f_number"].get<double>());
+                    std::printf("\n");
+                }
+                auto line = [](const char* label, const nlohmann::json& f) {
+                    const std::string zoom = f["zoom"].get<std::string>();
+                    std::printf("  %s%s%s: %s\n", label, f["check"].get<std::string>().c_str(),
+                                zoom.empty() ? "" : (" (" + zoom + ")").c_str(), f["detail"].get<std::string>().c_str());
+                };
+                for (const auto& f : j["failures"]) line("", f);
+                for (const auto& n : j["notes"]) line("note: ", n);
             }
             all.push_back(std::move(j));
         }

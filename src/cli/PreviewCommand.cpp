@@ -1,12 +1,14 @@
 #include "PreviewCommand.h"
 
 #include "LayersOption.h"
+#include "Output.h"
 #include "StarburstReport.h"
 
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "flare/core/OutputFiles.h"
@@ -27,8 +29,10 @@ struct PreviewCommandOptions {
     bool noDiffraction = false;
     bool higher = false;
     int passes = PreviewBudget::kDefaultPasses;
+    int beamsPerPass = 0;
     double timeS = 0.0;
     long long seed = -1;  // −1: the scene's
+    std::optional<double> exposureStops;  // unset: automatic
     bool quiet = false;
     bool pngGiven = false;  // --png given, even as ""
 };
@@ -50,6 +54,7 @@ void run(const PreviewCommandOptions& o) {
     }
     PreviewBudget budget;
     budget.passes = o.passes;
+    budget.beamsPerPass = o.beamsPerPass;
     // --time counts from the command's start: what loading the scene took is spent already.
     if (o.timeS > 0.0)
         budget.timeS = std::max(1e-3, o.timeS - std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
@@ -57,12 +62,13 @@ void run(const PreviewCommandOptions& o) {
     budget.higher = o.higher;
     budget.ghostLayers = o.layers.selection;
     ScenePreview preview = previewScene(scene, lens, o.layers.given, budget);
-    // The light's own image is 10⁴–10⁶ times brighter than its ghosts: the PNG is exposed for the
-    // ghosts (two stops under the ghost layer's auto exposure, so that overlapping ghosts keep their
-    // colour) and the light clips, as a photograph of a flare does.
-    const double pngExposure =
-        o.png.empty() ? 0.0
-                      : 0.25 * autoExposure(rgbLayerFromXyz("ghost", preview.ghosts, preview.widthPx, preview.heightPx));
+    // The light's own image is 10⁴–10⁶ times brighter than its ghosts: unless --exposure says
+    // otherwise, the PNG is exposed for the ghosts and the light clips (pngExposure, Output.h).
+    const double exposure =
+        o.pngGiven ? pngExposure(o.exposureStops,
+                                 rgbLayerFromXyz("ghost", preview.ghosts, preview.widthPx, preview.heightPx), "preview",
+                                 o.quiet)
+                   : 0.0;
     const std::vector<ImageLayer> layers = previewLayers(preview, o.layers.given);
     // Per-ghost layers (ghost_...) each as a part of its own over its footprint, at half precision
     // (11 significant bits, what compositing uses), which halves the file: as half floats where the
@@ -84,7 +90,7 @@ void run(const PreviewCommandOptions& o) {
         {"lens", lens.name()},
     };
     writeExr(outputs, o.exr, layers, metadata, storage);
-    if (o.pngGiven) writePng(outputs, o.png, layers.front(), pngExposure);
+    if (o.pngGiven) writePng(outputs, o.png, layers.front(), exposure);
     outputs.commit();
 
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -110,6 +116,7 @@ void addPreviewCommand(CLI::App& app) {
     preview->add_option("SCENE", o->scene, "scene file (JSON); default: the embedded default scene");
     preview->add_option("-o,--output", o->exr, "EXR file to write")->required();
     preview->add_option("--png", o->png, "also write a tone-mapped PNG");
+    addExposureOption(preview, o->exposureStops);
     addLayersOption(preview, o->layers,
                     "add layers: direct, starburst (the direct image diffracted), ghost (32-bit float) and one per ghost "
                     "(ghost_03_07.R/G/B, half precision)");
@@ -120,6 +127,10 @@ void addPreviewCommand(CLI::App& app) {
                         "passes of the final render's beams (default " + std::to_string(PreviewBudget::kDefaultPasses) +
                             "; the same seed and passes give the same image)")
         ->check(CLI::Range(1, 1 << 20));
+    preview->add_option("--beams-per-pass", o->beamsPerPass,
+                        "beams per pass and light (default: half the scene's render.beams_per_pass, so that the "
+                        "default passes cost one pass of the render; the render's own value makes the preview its first passes)")
+        ->check(CLI::Range(16, 65536));
     preview->add_option("--time", o->timeS,
                         "instead of --passes: as many passes as fit in this many seconds of wall time, analysis included")
         ->check(CLI::PositiveNumber);

@@ -48,6 +48,7 @@ struct RenderCommandOptions {
     long long seed = -1;     // −1: the scene's
     int threads = 0;
     double checkpointIntervalS = 60.0;
+    std::optional<double> exposureStops;  // unset: automatic
     double interiorAlbedo = -1.0;  // < 0: the scene's finishes
     LayersOption layers;
     bool noDiffraction = false;
@@ -58,137 +59,6 @@ struct RenderCommandOptions {
 
 std::atomic<bool> gInterrupted{false};
 extern "C" void onInterrupt(int) { gInterrupted.store(true); }
-
-const char* kindName(PathTally::Kind kind) {
-    switch (kind) {
-        case PathTally::Kind::Direct: return "direct";
-        case PathTally::Kind::Ghost: return "ghost";
-        case PathTally::Kind::Higher: return "higher";
-        case PathTally::Kind::Scatter: return "scatter";
-    }
-    return "?";
-}
-
-nlohmann::json reportJson(const Renderer& renderer, const Scene& scene, const LensSystem& lens, const RenderCommandOptions& o) {
-    const RenderStatistics& s = renderer.statistics();
-    nlohmann::json j;
-    j["scene"] = scene.sourceFile.empty() ? "embedded default scene" : scene.sourceFile;
-    j["lens"] = lens.name();
-    j["mode"] = o.mode;
-    j["seed"] = renderer.options().seed;
-    j["photons"] = s.photons;
-    j["guided_photons"] = s.guidedPhotons;
-    j["unguided_photons"] = s.unguidedPhotons;
-    j["passes"] = s.passes;
-    j["wall_time_s"] = s.seconds;
-    j["photons_per_second"] = s.seconds > 0.0 ? s.photons / s.seconds : 0.0;
-    j["units"] = "power in W for the lights' power units; irradiance layers in W/m2";
-
-    nlohmann::json lights = nlohmann::json::array();
-    nlohmann::json skipped = nlohmann::json::array();
-    for (const LightPlan& l : renderer.lights()) {
-        lights.push_back({{"name", l.name}, {"entering_power_w", l.enteringPowerW}, {"kept_ghosts", l.keptGhosts},
-                          {"beam_ghosts", l.beamGhosts}, {"pruned_ghosts", l.prunedGhosts},
-                          {"spectrally_kept_ghosts", l.spectrallyKeptGhosts}, {"skipped", l.skipped},
-                          {"higher_order",
-                           {{"share_estimate", l.higherOrderShareEstimate},
-                            {"guided", l.higherOrderGuided},
-                            {"chains", l.higherOrderChains},
-                            {"analysed", l.higherOrderAnalysed},
-                            {"paths", l.higherOrderPaths},
-                            {"why", l.higherOrderWhy}}}});
-        if (l.skipped) skipped.push_back({{"light", l.name}, {"reason", l.skipReason}});
-    }
-    j["lights"] = lights;
-    j["skipped"] = skipped;
-
-    // Per layer: the power with its standard error, the estimated relative L2 error of the image
-    // (as `flare compare` measures it against a reference), and the largest share of the layer's
-    // power one photon carried (a firefly shows as a share far above 1 / photons).
-    nlohmann::json layers;
-    // No estimate yet (fewer than two passes, or a replicate without a pass): null, not 0.
-    auto estimate = [&](int group) -> nlohmann::json {
-        return renderer.hasErrorEstimate() ? nlohmann::json(renderer.estimatedRelativeError(group)) : nlohmann::json();
-    };
-    const double drawn = static_cast<double>(s.passes) * renderer.options().photonsPerPass();
-    for (int l = 0; l < kFixedLayerCount; ++l) {
-        const PathTally& t = renderer.layerTallies()[l];
-        const double power = renderer.tallyPowerW(t);
-        layers[kindName(t.kind)] = {
-            {"power_w", power},
-            {"standard_error_w", renderer.tallyStandardErrorW(t)},
-            {"estimated_relative_error", estimate(kGroupDirect + l)},
-            {"largest_photon_share", power > 0.0 && drawn > 0.0 ? s.largestPhotonY[l] / (drawn * power) : 0.0}};
-    }
-    j["layers"] = layers;
-    j["flare_estimated_relative_error"] = estimate(kGroupFlare);
-    j["target_error"] = o.targetError;
-    j["beams"] = {{"beams", s.beams},
-                  {"traced_rays", s.beamRays},
-                  {"correction_photons", s.correctionPhotons},
-                  {"replicates", renderer.film().replicates()}};
-    nlohmann::json sources;
-    for (size_t i = 0; i < renderer.scatterSourceTallies().size(); ++i) {
-        const PathTally& t = renderer.scatterSourceTallies()[i];
-        sources[toString(static_cast<ScatterSource>(i + 1))] = {{"power_w", renderer.tallyPowerW(t)},
-                                                                {"standard_error_w", renderer.tallyStandardErrorW(t)}};
-    }
-    j["scatter_sources"] = sources;
-    const double collisions = static_cast<double>(s.nullCollisions + s.realCollisions);
-    j["delta_tracking"] = {{"real_collisions", s.realCollisions},
-                           {"null_collisions", s.nullCollisions},
-                           {"null_collision_ratio", collisions > 0.0 ? s.nullCollisions / collisions : 0.0}};
-
-    std::vector<const PathTally*> ghosts;
-    for (const PathTally& t : renderer.tallies())
-        if (t.kind == PathTally::Kind::Ghost && (t.sumMeans != 0.0 || t.guided))
-            ghosts.push_back(&t);
-    std::stable_sort(ghosts.begin(), ghosts.end(), [&](const PathTally* a, const PathTally* b) {
-        return renderer.tallyPowerW(*a) > renderer.tallyPowerW(*b);
-    });
-    nlohmann::json ghostArray = nlohmann::json::array();
-    for (const PathTally* t : ghosts) {
-        const double entering = renderer.lights()[t->light].enteringPowerW;
-        const double power = renderer.tallyPowerW(*t);
-        ghostArray.push_back({{"light", renderer.lights()[t->light].name},
-                              {"label", t->path.label()},
-                              {"surfaces", t->path.surfaceNumbers()},
-                              {"power_w", power},
-                              {"standard_error_w", renderer.tallyStandardErrorW(*t)},
-                              {"power_fraction", entering > 0.0 ? power / entering : 0.0},
-                              {"analysed_power_fraction", t->analysedPowerFraction},
-                              {"guided", t->guided},
-                              {"strategy", toString(t->strategy)}});
-    }
-    j["ghosts"] = ghostArray;
-
-    // Photon weights are powers per photon drawn: their sum over all photons (both strategies)
-    // divided by the photon count estimates a power.
-    const double perPhoton = s.photons > 0 ? 1.0 / static_cast<double>(s.photons) : 0.0;
-    nlohmann::json fates;
-    for (int f = 0; f < static_cast<int>(PhotonFate::Count); ++f)
-        fates[toString(static_cast<PhotonFate>(f))] = {{"photons", s.fates[f].photons},
-                                                       {"power_w", s.fates[f].powerW * perPhoton}};
-    j["unguided_energy"] = {{"emitted_power_w", s.unguidedEmittedPowerW * perPhoton},
-                            {"entered_power_w", s.unguidedEnteredPowerW * perPhoton},
-                            {"fates", fates}};
-    return j;
-}
-
-// The share of the work done, whichever limit comes first: the photon count, the time, or the
-// target error (whose square falls as one over the passes for photons, faster for beams: the time
-// left is then an upper bound).
-double progressFraction(const Renderer& renderer, std::int64_t photonLimit, double timeLimitS, double targetError,
-                        double elapsedS) {
-    const RenderStatistics& s = renderer.statistics();
-    double fraction = photonLimit > 0 ? static_cast<double>(s.photons) / photonLimit : 0.0;
-    if (timeLimitS > 0.0) fraction = std::max(fraction, elapsedS / timeLimitS);
-    const double error = renderer.estimatedRelativeError(kGroupFlare);
-    if (targetError > 0.0 && error > 0.0 && renderer.hasErrorEstimate())
-        fraction = std::max(fraction, std::min(1.0, (targetError * targetError) / (error * error)) *
-                                          std::min(1.0, s.passes / static_cast<double>(kMinPassesToStop)));
-    return std::min(fraction, 1.0);
-}
 
 void printProgress(const Renderer& renderer, double fraction, double targetError, double elapsedS) {
     const RenderStatistics& s = renderer.statistics();
@@ -271,7 +141,6 @@ int run(const RenderCommandOptions& o) {
     }
 
     const RenderStopRule stop = RenderStopRule::make(scene, options, o.photons > 0 ? o.photons : 0, o.timeS, o.targetError);
-    const std::int64_t perPass = options.photonsPerPass();
 
     auto lastCheckpoint = std::chrono::steady_clock::now();
     bool interrupted = false;
@@ -289,8 +158,7 @@ int run(const RenderCommandOptions& o) {
         passS = elapsed() - passStartS;
         // The progress line (whose error estimate scans the film) at most four times a second.
         if (!o.quiet && elapsed() - lastPrintS >= 0.25) {
-            printProgress(renderer, progressFraction(renderer, stop.passesWanted * perPass, o.timeS, o.targetError, elapsed()),
-                          o.targetError, elapsed());
+            printProgress(renderer, stop.progress(renderer, elapsed()), o.targetError, elapsed());
             lastPrintS = elapsed();
         }
         if (gInterrupted.load()) {
@@ -305,8 +173,7 @@ int run(const RenderCommandOptions& o) {
     }
     std::signal(SIGINT, previous);
     if (!o.quiet && renderer.statistics().passes > 0)
-        printProgress(renderer, progressFraction(renderer, stop.passesWanted * perPass, o.timeS, o.targetError, elapsed()),
-                      o.targetError, elapsed());
+        printProgress(renderer, stop.progress(renderer, elapsed()), o.targetError, elapsed());
     if (!o.quiet) std::fprintf(stderr, "\n");
     if (interrupted && checkpoint.empty()) {
         std::fprintf(stderr, "interrupted: nothing written (-o is not a regular file; --checkpoint keeps the work)\n");
@@ -346,11 +213,11 @@ int run(const RenderCommandOptions& o) {
     writeExr(outputs, o.exr, layers, metadata, exrOptions);
     if (o.pngGiven) {
         const ImageLayer& ghost = layers[1 + kLayerGhost];
-        writePng(outputs, o.png, layers.front(), 0.25 * autoExposure(ghost));
+        writePng(outputs, o.png, layers.front(), pngExposure(o.exposureStops, ghost, "render", o.quiet));
     }
     if (o.reportGiven) {
-        nlohmann::json report = reportJson(renderer, scene, lens, o);
-        if (starburst) report["diffraction"] = starburstJson(*starburst);
+        const nlohmann::json report =
+            sceneRenderReportJson(renderer, scene, lens, o.targetError, starburst ? &*starburst : nullptr);
         outputs.write(o.report, jsonText(report) + "\n");
     }
     if (o.checkpointGiven) renderer.saveCheckpoint(outputs, o.checkpoint);
@@ -410,6 +277,7 @@ void addRenderCommand(CLI::App& app) {
                      "trace the unguided photons' stray light analog (absorption by roulette, no connections to the "
                      "sensor), as the naive mode does: slower to converge, for comparison");
     render->add_option("--png", o->png, "also write a tone-mapped PNG");
+    addExposureOption(render, o->exposureStops);
     render->add_option("--report", o->report, "write a JSON report (per-ghost power with standard errors, layers, energy)");
     render->add_option("--checkpoint", o->checkpoint,
                        "checkpoint file: resumed from if it exists, written periodically, on Ctrl-C and at the end");

@@ -7,6 +7,7 @@
 
 #include "CompareCommand.h"
 #include "GhostCommands.h"
+#include "GlassCatalogOption.h"
 #include "LensCommands.h"
 #include "PreviewCommand.h"
 #include "RenderCommand.h"
@@ -22,6 +23,7 @@ int main(int argc, char** argv) {
     flare::cli::addRenderCommand(app);
     flare::cli::addCompareCommand(app);
     flare::cli::addVolumeCommands(app);
+    flare::cli::addGlassCatalogOptions(app);
     try {
         app.parse(argc, argv);
     } catch (const CLI::RuntimeError& e) {

@@ -1,4 +1,5 @@
 #include "FuzzTargets.h"
+#include "FuzzTextSeeds.h"
 
 #include <cmath>
 #include <cstdint>
@@ -24,8 +25,10 @@
 
 #include "flare/core/Error.h"
 #include "flare/core/Random.h"
+#include "flare/core/TextEncoding.h"
 #include "flare/film/Film.h"
 #include "flare/film/ImageIO.h"
+#include "flare/optics/AgfCatalog.h"
 #include "flare/optics/LensFile.h"
 #include "flare/optics/Paraxial.h"
 #include "flare/optics/SequentialTracer.h"
@@ -143,6 +146,50 @@ void lensInput(std::string_view data) {
     try {
         std::vector<std::string> warnings;  // kept off stderr
         exercise(parseZemaxText(data, "fuzz.zmx", &warnings));
+    } catch (const InputError&) {
+    }
+}
+
+void zmxInput(std::string_view data) {
+    try {
+        std::vector<std::string> warnings;  // kept off stderr
+        exercise(parseZemaxText(data, "fuzz.zmx", &warnings));
+    } catch (const InputError&) {
+    }
+}
+
+namespace {
+// The singlet agfInput puts a fuzzed glass into (its front element's medium is replaced).
+const LensPrescription& agfSinglet() {
+    static const LensPrescription singlet = parseLensText(R"(name agf fuzz singlet
+focal_length_mm 50
+surfaces
+  50     4     N-BK7   10
+  -50    2     air     10
+  stop   auto  air     8
+)",
+                                                          "agf-singlet.lens");
+    return singlet;
+}
+}  // namespace
+
+void agfInput(std::string_view data) {
+    try {
+        const AgfCatalog catalog = AgfCatalog::parse(decodeText(data, "fuzz.agf"), "fuzz.agf", "FUZZ");
+        int traced = 0;
+        for (const AgfGlass& g : catalog.glasses()) {
+            // What a lens asks of a glass: indices across the visible (and beyond, where a
+            // formula may have poles), the catalogue's lookup, and for a glass made for the
+            // visible, a lens built and traced with it.
+            for (double nm = 300.0; nm <= 900.0; nm += 25.0) gSink = gSink + catalogIndex(g.glass, nm);
+            gSink = gSink + static_cast<double>(validRangeText(g.glass).size());
+            if (catalog.find(g.glass.name) == nullptr) throw std::logic_error("a parsed glass is not found by its name");
+            if (!coversVisible(g.glass) || traced >= 4) continue;
+            LensPrescription singlet = agfSinglet();
+            singlet.rows[0].mediumAfter = Medium::catalog(g.glass);
+            exercise(singlet);
+            ++traced;
+        }
     } catch (const InputError&) {
     }
 }
@@ -363,6 +410,14 @@ int writeGeneratedSeeds(const std::string& dir) {
         file.writePixels(h);
         ++written;
     }
+    {
+        // Overscan: the data window starts left of and above the display window.
+        Imf::Header header(Imath::Box2i(Imath::V2i(0, 0), Imath::V2i(3, 2)), Imath::Box2i(Imath::V2i(-2, -1), Imath::V2i(3, 3)));
+        Imf::RgbaOutputFile file((exrDir / "negative-window.exr").c_str(), header, Imf::WRITE_RGB);
+        file.setFrameBuffer(pixels.data() + (2 + 1 * w), 1, w);
+        file.writePixels(h);
+        ++written;
+    }
     for (const auto& [name, mode] : {std::pair{"tiled", Imf::ONE_LEVEL}, std::pair{"mipmap", Imf::MIPMAP_LEVELS}}) {
         Imf::TiledRgbaOutputFile file((exrDir / (std::string(name) + ".exr")).c_str(), w, h, 4, 4, mode, Imf::ROUND_DOWN,
                                       Imf::WRITE_RGB, 1.0f, Imath::V2f(0.0f, 0.0f), 1.0f, Imf::INCREASING_Y,
@@ -389,6 +444,8 @@ int writeGeneratedSeeds(const std::string& dir) {
     written += 2;
 
     written += writeVdbSeeds(std::filesystem::path(dir) / "vdb");
+    written += writeZmxSeeds(std::filesystem::path(dir) / "zmx");
+    written += writeAgfSeeds(std::filesystem::path(dir) / "agf");
     return written;
 }
 

@@ -16,6 +16,13 @@ namespace flare::fuzz {
 // parseLensText, parsePbrtLensText and parseZemaxText on the same text; a lens that parses is built and a few
 // rays are traced through it (sequentially and with the photon tracer).
 void lensInput(std::string_view data);
+// parseZemaxText alone (its own seeds: .zmx files in both encodings, which the .lens seeds of
+// lensInput do not resemble); a lens that parses is built and traced as in lensInput.
+void zmxInput(std::string_view data);
+// AgfCatalog::parse on the decoded bytes (UTF-16 or 8-bit, as AgfCatalog::load reads a file); every
+// glass of a catalogue that parses has its index evaluated across the visible, and the first few
+// that cover it (what the .zmx reader accepts) are put into a singlet that is built and traced.
+void agfInput(std::string_view data);
 // parseSceneText; a scene that names a shipped lens is then built (zoom, focus, f-number,
 // sensor size checks).
 void sceneInput(std::string_view data);
@@ -30,10 +37,13 @@ void checkpointInput(std::string_view data);
 void vdbInput(std::string_view data);
 
 // Writes seed inputs that cannot be copied from the source tree: small EXRs (float and half,
-// scanline and tiled, several compressions, layers), a checkpoint and a bare film of the render
-// checkpointInput uses, and small .vdb files (float grids as flare writes them, compressed and
-// not, and the grids load() rejects). Returns the number of files written under dir/exr,
-// dir/checkpoint and dir/vdb.
+// scanline and tiled, several compressions, layers, offset and negative data windows), a checkpoint and a bare film of the render
+// checkpointInput uses, small .vdb files (float grids as flare writes them, compressed and
+// not, and the grids load() rejects), .zmx files (the shipped lenses and a few library lenses as
+// writeZemax writes them, in UTF-8 and UTF-16, and hand-written files using what the writer never
+// writes) and small .agf files (a few glasses of each shipped catalogue, whose files are
+// 400-640 kB, and one glass of every formula). Returns the number of files written under dir/exr,
+// dir/checkpoint, dir/vdb, dir/zmx and dir/agf.
 int writeGeneratedSeeds(const std::string& dir);
 
 }  // namespace flare::fuzz

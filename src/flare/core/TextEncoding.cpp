@@ -1,6 +1,7 @@
 #include "flare/core/TextEncoding.h"
 
 #include <cctype>
+#include <charconv>
 
 #include <cerrno>
 #include <cstring>
@@ -143,6 +144,12 @@ std::string asciiLower(std::string_view s) {
     std::string out(s);
     for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     return out;
+}
+
+std::string shortestNumberText(double value) {
+    char buffer[64];
+    const auto [end, ec] = std::to_chars(buffer, buffer + sizeof buffer, value);
+    return std::string(buffer, ec == std::errc() ? end : buffer);
 }
 
 }  // namespace flare

@@ -28,4 +28,8 @@ std::vector<std::string_view> splitWhitespace(std::string_view line);
 std::string asciiUpper(std::string_view s);
 std::string asciiLower(std::string_view s);
 
+// For the writers: the shortest decimal text that reads back as the same double (std::to_chars),
+// so that a number written and read again is the number it was.
+std::string shortestNumberText(double value);
+
 }  // namespace flare

@@ -7,9 +7,11 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <set>
 #include <stdexcept>
+#include <string>
 #include <system_error>
 #include <thread>
 #include <utility>
@@ -305,14 +307,23 @@ std::vector<ImageLayer> readPart(Imf::MultiPartInputFile& file, int p, const std
         layer.name = name;
         layer.width = static_cast<int>(width);
         layer.height = static_cast<int>(height);
-        layer.x = window.min.x - frameOrigin.x;
-        layer.y = window.min.y - frameOrigin.y;
+        // The window's place in the frame, in 64 bits: a hostile header's corners can lie 2^32 apart.
+        const long long x = static_cast<long long>(window.min.x) - frameOrigin.x;
+        const long long y = static_cast<long long>(window.min.y) - frameOrigin.y;
+        if (x < std::numeric_limits<int>::min() || x > std::numeric_limits<int>::max() ||
+            y < std::numeric_limits<int>::min() || y > std::numeric_limits<int>::max())
+            throw std::runtime_error("a part's data window lies too far from its frame");
+        layer.x = static_cast<int>(x);
+        layer.y = static_cast<int>(y);
         layer.rgb.assign(3 * static_cast<size_t>(width) * static_cast<size_t>(height), 0.0f);
-        // OpenEXR addresses pixels by absolute (x, y) in the data window.
-        char* origin = reinterpret_cast<char*>(layer.rgb.data()) - static_cast<ptrdiff_t>(window.min.x) * xStride -
-                       static_cast<ptrdiff_t>(window.min.y) * static_cast<ptrdiff_t>(yStride);
+        // OpenEXR addresses pixels by absolute (x, y) in the data window; Slice::Make takes the
+        // window's first pixel and offsets it in signed 64-bit arithmetic (offsetting the pointer
+        // here with size_t strides wrapped a negative window origin around the address space:
+        // tests/data/fuzz/exr/negative-data-window-origin.exr).
+        char* first = reinterpret_cast<char*>(layer.rgb.data());
         for (int c = 0; c < 3; ++c)
-            frameBuffer.insert(channelName(name, c), Imf::Slice(Imf::FLOAT, origin + c * sizeof(float), xStride, yStride));
+            frameBuffer.insert(channelName(name, c),
+                               Imf::Slice::Make(Imf::FLOAT, first + c * sizeof(float), window, xStride, yStride));
     }
     part.setFrameBuffer(frameBuffer);
     part.readPixels(window.min.y, window.max.y);

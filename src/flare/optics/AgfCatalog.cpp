@@ -107,8 +107,8 @@ AgfCatalog AgfCatalog::parse(std::string_view text, const std::string& fileName,
                 fail(r.line, "NM needs a name, a formula number, a glass code, nd and Vd; found " +
                                  std::to_string(r.values.size()) + " fields");
             double formula = 0.0, nd = 0.0, vd = 0.0;
-            if (!parseNumber(r.values[1], &formula) || formula != std::floor(formula) ||
-                agfCoefficientCount(static_cast<int>(formula)) == 0)
+            // In range before it is converted: a double beyond int's range (1e10) has no int value.
+            if (!parseNumber(r.values[1], &formula) || formula != std::floor(formula) || formula < 1.0 || formula > 13.0)
                 fail(r.line, "glass " + std::string(r.values[0]) + ": unknown dispersion formula '" +
                                  std::string(r.values[1]) + "' (formulas 1 to 13 are known)");
             if (!parseNumber(r.values[3], &nd) || nd < 1.0 || nd > 5.0)
@@ -184,6 +184,59 @@ std::vector<std::string> glassCatalogFolders() {
     for (const std::string& library : LensLibrary::defaultFolders())
         folders.push_back((fs::path(library) / ".." / "glass").lexically_normal().string());
     return folders;
+}
+
+namespace {
+
+struct PrivateCatalogs {
+    std::mutex mutex;
+    std::deque<AgfCatalog> catalogs;        // a deque keeps every catalogue (and its glasses) in place
+    std::vector<std::string> keys;          // each catalogue's canonical path
+    std::vector<const AgfCatalog*> order;   // the last given first
+};
+
+PrivateCatalogs& privateCatalogs() {
+    static PrivateCatalogs catalogs;
+    return catalogs;
+}
+
+// The catalogue read from `canonical`, moved to the front of the search order; null if not read yet.
+// The caller holds the mutex.
+const AgfCatalog* useKnown(PrivateCatalogs& p, const std::string& canonical) {
+    for (size_t i = 0; i < p.keys.size(); ++i)
+        if (p.keys[i] == canonical) {
+            const AgfCatalog* c = &p.catalogs[i];
+            std::erase(p.order, c);
+            p.order.insert(p.order.begin(), c);
+            return c;
+        }
+    return nullptr;
+}
+
+}  // namespace
+
+const AgfCatalog& useGlassCatalog(const std::string& path) {
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec)) throw InputError(path, 0, "no glass catalogue file (.agf) here");
+    const std::string canonical = fs::canonical(path, ec).string();
+    PrivateCatalogs& p = privateCatalogs();
+    {
+        const std::lock_guard lock(p.mutex);
+        if (const AgfCatalog* known = useKnown(p, canonical)) return *known;
+    }
+    AgfCatalog catalog = AgfCatalog::load(path);  // outside the lock: reading takes a while
+    const std::lock_guard lock(p.mutex);
+    if (const AgfCatalog* known = useKnown(p, canonical)) return *known;  // another thread was quicker
+    p.catalogs.push_back(std::move(catalog));
+    p.keys.push_back(canonical);
+    p.order.insert(p.order.begin(), &p.catalogs.back());
+    return p.catalogs.back();
+}
+
+std::vector<const AgfCatalog*> privateGlassCatalogs() {
+    PrivateCatalogs& p = privateCatalogs();
+    const std::lock_guard lock(p.mutex);
+    return p.order;
 }
 
 std::span<const AgfCatalog> shippedGlassCatalogs() {

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <deque>
+#include <mutex>
 #include <span>
 #include <string>
 #include <string_view>
@@ -63,5 +64,15 @@ int agfCoefficientCount(int formula);
 std::span<const AgfCatalog> shippedGlassCatalogs();
 // The folders looked in for shipped catalogues, in order, existing or not.
 std::vector<std::string> glassCatalogFolders();
+
+// A private catalogue (`--glass-catalog FILE.agf`, a scene's `glass_catalog`, the Python module's
+// glass_catalog=): read once per file (by its canonical path) and, from then on for the rest of the
+// process, searched before the built-in and shipped glasses by every lens read (findCatalogGlass),
+// the last one given first; a .zmx file's `GCAT NAME` finds it by its name (the file's stem in
+// upper case). Kept for the process's lifetime: the media of the lenses read point into it. A
+// missing or malformed file raises InputError naming it. Thread-safe.
+const AgfCatalog& useGlassCatalog(const std::string& path);
+// The private catalogues given so far, the last given first.
+std::vector<const AgfCatalog*> privateGlassCatalogs();
 
 }  // namespace flare

@@ -102,6 +102,12 @@ std::span<const CatalogGlass> glassCatalog() { return kCatalog; }
 
 const CatalogGlass* findCatalogGlass(std::string_view name) {
     const size_t colon = name.find(':');
+    // Private catalogues first: the user gave them for this (useGlassCatalog).
+    for (const AgfCatalog* catalog : privateGlassCatalogs()) {
+        if (colon != std::string_view::npos && !equalsIgnoreCase(catalog->name(), name.substr(0, colon))) continue;
+        if (const CatalogGlass* g = catalog->find(colon == std::string_view::npos ? name : name.substr(colon + 1)))
+            return g;
+    }
     if (colon == std::string_view::npos)
         for (const CatalogGlass& g : kCatalog)
             if (equalsIgnoreCase(g.name, name)) return &g;

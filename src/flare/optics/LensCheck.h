@@ -6,12 +6,19 @@
 // Per zoom position (or once for a fixed focal length):
 //   efl      the paraxial EFL at the d line lies within kEflRelativeTolerance of the focal length
 //            the file states (focal_length_mm, or the position's value on the zoom line);
-//   stop     the aperture stop opens to the stated f-number (f_number) up to its rounding: the
+//   stop     the aperture stop opens to the stated f-number (f_number, or the position's own for a
+//            variable-aperture zoom) up to its rounding: the
 //            paraxial f-number with the stop row's semi-aperture is at most f_number + kFNumberRounding;
-//   ray_fan  real rays from an axial object at infinity, aimed at kFanPupilFractions of the iris
-//            opening's radius (in x and in y, both signs) and at its centre, with the iris at the
-//            stated f-number (or wide open, if that is slower within the rounding), reach the
-//            sensor through every clear aperture with finite coordinates.
+//   ray_fan  real rays from an axial object at infinity, aimed at kFanPupilFractions of the round
+//            opening of the stated f-number (or of the wide-open stop, if that is slower within the
+//            rounding) in x and in y, both signs, and at its centre, reach the sensor through every
+//            clear aperture with finite coordinates.
+// A check needs what it compares with: a file that states no focal length (pbrt .dat, Zemax .zmx
+// without configurations) gets no efl check, one that states no f-number no stop check and its fan
+// at the stop's own wide-open f-number. Each such omission is a note, not a failure: the lens is not
+// wrong for lacking what its format cannot say. A bladed iris's corners reach beyond the round
+// opening of the same area (the f-number is the area's): whether light through them is clipped by
+// another clear aperture is reported as a note too, since clear apertures are sized for the round beam.
 // Loading itself (parse, no intersecting elements, positive edge thicknesses, the focus solve) is
 // the parser's and LensSystem::build's job: a lens that does not load has failed before these run.
 #pragma once
@@ -35,22 +42,26 @@ inline constexpr double kFNumberRounding = 0.05;
 // so that a ray aimed exactly at the iris edge is not stopped by rounding.
 inline constexpr double kFanPupilFractions[] = {0.0, 0.35, 0.7, 0.98};
 
+// A failed check, or a note (information that does not fail the lens).
 struct LensCheckFailure {
-    std::string check;   // "efl", "stop", "ray_fan", "f_number"
+    std::string check;   // "efl", "stop", "ray_fan"
     std::string zoom;    // the zoom position ("" for a fixed focal length)
     std::string detail;  // one line saying what was found
 };
+using LensCheckNote = LensCheckFailure;
 
 struct LensCheckPosition {
     std::string zoom;
-    double statedFocalLengthMm = 0.0;
+    double statedFocalLengthMm = 0.0;  // 0: the file states none
     double eflMm = 0.0;
     double wideOpenFNumber = 0.0;  // paraxial, with the stop row's semi-aperture
+    double fanFNumber = 0.0;       // the f-number the ray fan ran at (0: it did not run)
 };
 
 struct LensCheckReport {
     std::vector<LensCheckPosition> positions;
     std::vector<LensCheckFailure> failures;
+    std::vector<LensCheckNote> notes;
     bool ok() const { return failures.empty(); }
 };
 

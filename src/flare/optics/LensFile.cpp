@@ -282,8 +282,29 @@ void parseHeader(const Parser& parser, LensPrescription& p, const Line& line) {
         requireSingle();
         p.focalLengthMm = parser.positive(n, tokens[1], "focal_length_mm");
     } else if (key == "f_number") {
-        requireSingle();
-        p.fNumber = parser.positive(n, tokens[1], "f_number");
+        requireValue();
+        if (tokens[1].find('=') == std::string_view::npos) {
+            requireSingle();
+            p.fNumber = parser.positive(n, tokens[1], "f_number");
+        } else {
+            // A variable-aperture zoom: the stated f-number at each position (as `gap` values).
+            if (p.zoomPositions.empty()) parser.error(n, "f_number per zoom position must follow the zoom line");
+            std::vector<std::optional<double>> values(p.zoomPositions.size());
+            for (size_t i = 1; i < tokens.size(); ++i) {
+                const auto [k, v] = parser.keyValue(n, tokens[i]);
+                const auto it = std::find_if(p.zoomPositions.begin(), p.zoomPositions.end(),
+                                             [&](const ZoomPosition& z) { return z.name == k; });
+                if (it == p.zoomPositions.end()) parser.error(n, "f_number: unknown zoom position '" + k + "'");
+                std::optional<double>& value = values[it - p.zoomPositions.begin()];
+                if (value) parser.error(n, "f_number: zoom position '" + k + "' is given twice");
+                value = parser.positive(n, v, "f_number");
+            }
+            for (size_t i = 0; i < values.size(); ++i) {
+                if (!values[i]) parser.error(n, "f_number: no value for zoom position '" + p.zoomPositions[i].name + "'");
+                p.zoomPositions[i].fNumber = values[i];
+            }
+            p.fNumber = p.zoomPositions[0].fNumber;
+        }
     } else if (key == "object_distance_mm") {
         requireSingle();
         p.objectDistanceMm = parser.number(n, tokens[1], "object_distance_mm");
@@ -500,6 +521,12 @@ std::string stem(const std::string& path) {
 
 }  // namespace
 
+void parseLensHeaderLine(LensPrescription& p, std::string_view text, const std::string& fileName, int line) {
+    const std::string_view trimmed = trim(text);
+    if (trimmed.empty()) throw InputError(fileName, line, "an empty header line");
+    parseHeader(Parser(fileName), p, Line{line, trimmed});
+}
+
 LensPrescription parseLensText(std::string_view text, const std::string& fileName) {
     const Parser parser(fileName);
     LensPrescription p;
@@ -584,6 +611,31 @@ void validatePrescription(const LensPrescription& p, int lastLine) {
     validate(parser, p, lastLine);
 }
 
+std::string unknownLensProblem(const std::string& name) {
+    std::vector<std::string> shipped;
+    for (const EmbeddedLens& lens : embeddedLenses()) shipped.emplace_back(lens.name);
+    std::string shippedText;
+    for (const std::string& s : shipped) shippedText += (shippedText.empty() ? "" : ", ") + s;
+    const LensLibrary& library = LensLibrary::shared();
+    std::string problem = "no lens file, shipped lens (" + shippedText + ") or library lens '" + name + "'";
+    if (const LibraryLens* renamed = library.renamed(name))
+        return problem + ": that library id was renamed '" + renamed->id + "', " + renamed->name +
+               " (its old name did not give its focal length or f-number; docs/lens-library.md)";
+    if (library.folders().empty()) {
+        std::string searched;
+        for (const std::string& folder : LensLibrary::defaultFolders()) searched += (searched.empty() ? "" : ", ") + folder;
+        return problem + "; no lens library was found (searched " + searched + "; FLARE_LENS_PATH adds folders)";
+    }
+    problem += "; the library (" + std::to_string(library.lenses().size()) + " lenses in " + library.folders().front() +
+               (library.folders().size() > 1 ? " and " + std::to_string(library.folders().size() - 1) + " more folders" : "") +
+               ") was searched";
+    const std::vector<std::string> nearest = library.nearestIds(name, 6, shipped);
+    if (nearest.empty()) return problem + " (`flare lens search WORDS` finds lenses by maker, model or patent)";
+    std::string list;
+    for (const std::string& id : nearest) list += (list.empty() ? "" : ", ") + id;
+    return problem + "; nearest: " + list;
+}
+
 LensPrescription loadLens(const std::string& pathOrName) {
     if (pathOrName.find('/') == std::string::npos && !std::ifstream(pathOrName).good()) {
         std::string name = pathOrName;
@@ -591,6 +643,10 @@ LensPrescription loadLens(const std::string& pathOrName) {
         for (const EmbeddedLens& lens : embeddedLenses())
             if (name == lens.name) return parseLensText(lens.text, "lenses/" + name + ".lens");
         if (const LibraryLens* lens = LensLibrary::shared().find(name)) return loadLensFile(lens->path);
+        // Not a file here, nor a name: a pbrt or Zemax file name still reports why it cannot be
+        // opened; anything else may have been meant as a name.
+        const std::string extension = name.size() >= 4 ? asciiLower(name.substr(name.size() - 4)) : "";
+        if (extension != ".zmx" && extension != ".dat") throw InputError(pathOrName, 0, unknownLensProblem(name));
     }
     return loadLensFile(pathOrName);
 }

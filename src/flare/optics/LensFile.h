@@ -18,9 +18,18 @@ LensPrescription loadLensFile(const std::string& path);
 // (LensLibrary.h), whose file is read.
 LensPrescription loadLens(const std::string& pathOrName);
 
+// Why `name` (no file here) names no lens: the shipped names, the library searched and the ids
+// nearest to it (or the id it was renamed to).
+std::string unknownLensProblem(const std::string& name);
+
 // Parses text already in memory; `fileName` is used in error messages and as the source file.
 LensPrescription parseLensText(std::string_view text, const std::string& fileName);
 LensPrescription parsePbrtLensText(std::string_view text, const std::string& fileName);
+
+// One header line of the native format (e.g. "iris blades=7 rotation_deg=10", "coating ar1 single
+// n=1.38 quarter_wave_nm=550") applied to `p`, checked as in a .lens file; errors name `fileName`
+// and `line`. The Zemax reader takes flare's own lines from the notes it writes (ZemaxFile.h).
+void parseLensHeaderLine(LensPrescription& p, std::string_view text, const std::string& fileName, int line);
 
 // The checks every reader makes once its rows are read: each row's semi-aperture within its
 // surface, one stop that does not change the medium, known gaps and coatings, dirt where it can

@@ -31,8 +31,12 @@ nlohmann::json lensInfoJson(const LensPrescription& prescription, const LensSyst
         j["zoom"] = {{"position", lens.zoomName().empty() ? nlohmann::json(nullptr) : nlohmann::json(lens.zoomName())},
                      {"nominal_focal_length_mm", *lens.zoomFocalLengthMm()}};
         nlohmann::json positions = nlohmann::json::array();
-        for (const ZoomPosition& z : prescription.zoomPositions)
-            positions.push_back({{"name", z.name}, {"focal_length_mm", z.focalLengthMm}});
+        for (const ZoomPosition& z : prescription.zoomPositions) {
+            const std::optional<double> fNumber = z.fNumber ? z.fNumber : prescription.fNumber;
+            positions.push_back({{"name", z.name},
+                                 {"focal_length_mm", z.focalLengthMm},
+                                 {"f_number", fNumber ? nlohmann::json(*fNumber) : nlohmann::json(nullptr)}});
+        }
         j["zoom_positions"] = positions;
     }
     j["efl_mm"] = para.eflMm;

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "flare/core/Error.h"
+#include "flare/core/NearestNames.h"
 
 #ifndef FLARE_LENS_LIBRARY_INSTALL_DIR
 #define FLARE_LENS_LIBRARY_INSTALL_DIR ""
@@ -46,8 +47,12 @@ LibraryLens readEntry(const nlohmann::json& j, const fs::path& folder) {
     const std::vector<double> range = j.value("focal_range_mm", std::vector<double>{});
     lens.focalMinMm = range.size() == 2 ? range[0] : lens.focalLengthMm;
     lens.focalMaxMm = range.size() == 2 ? range[1] : lens.focalLengthMm;
+    const std::vector<double> product = j.value("zoom_range_mm", std::vector<double>{});
+    if (product.size() == 2) lens.zoomRangeMm = std::pair{product[0], product[1]};
     lens.fNumber = j.at("f_number").get<double>();
     lens.zoomPositions = j.value("zoom_positions", std::vector<std::string>{});
+    lens.zoomFocalLengthsMm = j.value("zoom_focal_lengths_mm", std::vector<double>{});
+    lens.renamedFrom = j.value("renamed_from", std::vector<std::string>{});
     lens.patent = j.value("patent", "");
     lens.example = j.value("example", 0);
     lens.collection = j.value("collection", "");
@@ -118,6 +123,25 @@ const LibraryLens* LensLibrary::find(std::string_view id) const {
     for (const LibraryLens& lens : lenses_)
         if (lens.id == id) return &lens;
     return nullptr;
+}
+
+std::vector<std::string> LensLibrary::makers() const {
+    std::set<std::string> makers;
+    for (const LibraryLens& lens : lenses_) makers.insert(lens.maker);
+    return {makers.begin(), makers.end()};
+}
+
+const LibraryLens* LensLibrary::renamed(std::string_view id) const {
+    for (const LibraryLens& lens : lenses_)
+        if (std::find(lens.renamedFrom.begin(), lens.renamedFrom.end(), id) != lens.renamedFrom.end()) return &lens;
+    return nullptr;
+}
+
+std::vector<std::string> LensLibrary::nearestIds(std::string_view name, size_t count,
+                                                 const std::vector<std::string>& extraNames) const {
+    std::vector<std::string> names = extraNames;
+    for (const LibraryLens& lens : lenses_) names.push_back(lens.id);
+    return nearestNames(name, names, count);
 }
 
 std::vector<const LibraryLens*> LensLibrary::filter(const LibraryFilter& f) const {

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <optional>
+#include <utility>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -26,9 +27,14 @@ struct LibraryLens {
     std::string kind;       // "prime" or "zoom"
     std::vector<std::string> tags;  // e.g. "fisheye", "macro", "zoom-wide-only"
     double focalLengthMm = 0.0;     // design focal length (the first zoom position for a zoom)
-    double focalMinMm = 0.0, focalMaxMm = 0.0;  // the range a search by focal length matches
+    double focalMinMm = 0.0, focalMaxMm = 0.0;  // what the file can be set to: its positions' range
     double fNumber = 0.0;
     std::vector<std::string> zoomPositions;  // named positions of a merged zoom
+    std::vector<double> zoomFocalLengthsMm;  // their stated focal lengths, in the same order
+    // The range of the zoom (as its source names it) of which the file holds only one state, its
+    // first; focalMinMm = focalMaxMm = focalLengthMm then: the file can be set to no other.
+    std::optional<std::pair<double, double>> zoomRangeMm;
+    std::vector<std::string> renamedFrom;  // ids this lens had before (docs/lens-library.md)
     std::string patent;
     int example = 0;
     std::string collection;
@@ -53,6 +59,14 @@ public:
     const std::vector<LibraryLens>& lenses() const { return lenses_; }
     const std::vector<std::string>& folders() const { return folders_; }  // those that were read
     const LibraryLens* find(std::string_view id) const;
+    // The makers of the library's lenses, sorted, each once.
+    std::vector<std::string> makers() const;
+    // The lens that had `id` before it was renamed, or nullptr.
+    const LibraryLens* renamed(std::string_view id) const;
+    // Up to `count` ids (and shipped lens names among `extraNames`) nearest to a mistyped `name`
+    // (NearestNames.h).
+    std::vector<std::string> nearestIds(std::string_view name, size_t count,
+                                        const std::vector<std::string>& extraNames = {}) const;
     // Lenses passing the filter, in index order.
     std::vector<const LibraryLens*> filter(const LibraryFilter& filter) const;
     // Lenses whose id, maker, model, name, patent or tags contain every word of `text`

@@ -60,6 +60,9 @@ struct PrescriptionRow {
 struct ZoomPosition {
     std::string name;
     double focalLengthMm = 0.0;  // published focal length of this position
+    // Published f-number of this position: a variable-aperture zoom's `f_number wide=3.5 tele=5.6`
+    // (LensPrescription::fNumber is then the first position's); unset: fNumber holds everywhere.
+    std::optional<double> fNumber;
 };
 
 struct VariableGap {

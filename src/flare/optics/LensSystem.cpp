@@ -4,12 +4,24 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <numbers>
+
+#include <boost/math/tools/roots.hpp>
 
 #include "flare/core/Error.h"
 #include "flare/optics/Paraxial.h"
 
 namespace flare {
+
+// A resolved zoom state: gaps at (1 − t)·position a + t·position b.
+struct ZoomWeights {
+    int a = 0, b = 0;  // bracketing zoom positions
+    double t = 0.0;    // weight of b
+    std::string name;
+    std::optional<double> focalLengthMm;
+    std::optional<double> solveForEflMm;  // a focal length asked for: t is still to be solved
+};
 
 namespace {
 
@@ -19,21 +31,9 @@ std::string formatMm(double value) {
     return buffer;
 }
 
-struct ZoomWeights {
-    int a = 0, b = 0;  // bracketing zoom positions
-    double t = 0.0;    // weight of b
-    std::string name;
-    std::optional<double> focalLengthMm;
-};
-
 ZoomWeights resolveZoom(const LensPrescription& p, const std::string& zoom) {
     ZoomWeights w;
-    if (p.zoomPositions.empty()) {
-        if (!zoom.empty())
-            throw InputError(p.sourceFile, 0,
-                             "zoom '" + zoom + "' requested but the lens has no zoom positions");
-        return w;
-    }
+    if (p.zoomPositions.empty()) return w;  // a zoom asked of a lens without positions: see build()
     if (zoom.empty()) {
         w.name = p.zoomPositions[0].name;
         w.focalLengthMm = p.zoomPositions[0].focalLengthMm;
@@ -51,26 +51,11 @@ ZoomWeights resolveZoom(const LensPrescription& p, const std::string& zoom) {
     const auto [end, ec] = std::from_chars(zoom.data(), zoom.data() + zoom.size(), focal);
     std::string names;
     for (const ZoomPosition& z : p.zoomPositions) names += (names.empty() ? "" : ", ") + z.name;
-    if (ec != std::errc() || end != zoom.data() + zoom.size())
+    if (ec != std::errc() || end != zoom.data() + zoom.size() || !(focal > 0.0) || !std::isfinite(focal))
         throw InputError(p.sourceFile, 0,
                          "unknown zoom position '" + zoom + "' (positions: " + names +
                              ", or a focal length in mm)");
-    const double lo = p.zoomPositions.front().focalLengthMm;
-    const double hi = p.zoomPositions.back().focalLengthMm;
-    if (focal < lo || focal > hi)
-        throw InputError(p.sourceFile, 0,
-                         "zoom focal length " + formatMm(focal) + " mm is outside the lens's range " +
-                             formatMm(lo) + "–" + formatMm(hi) + " mm");
-    for (size_t i = 0; i + 1 < p.zoomPositions.size(); ++i) {
-        const double f0 = p.zoomPositions[i].focalLengthMm, f1 = p.zoomPositions[i + 1].focalLengthMm;
-        if (focal >= f0 && focal <= f1) {
-            w.a = static_cast<int>(i);
-            w.b = static_cast<int>(i + 1);
-            w.t = f1 > f0 ? (focal - f0) / (f1 - f0) : 0.0;
-            break;
-        }
-    }
-    w.focalLengthMm = focal;
+    w.solveForEflMm = focal;
     return w;
 }
 
@@ -106,7 +91,72 @@ void checkEdgeThickness(const LensPrescription& p, const std::vector<Surface>& s
 
 }  // namespace
 
+// The zoom state whose paraxial EFL (d line) is the asked focal length. The gaps run linearly
+// between consecutive positions; along that path the EFL is found at the positions, the first
+// pair that brackets the asked value is taken, and inside it the weight is solved with TOMS 748
+// (bracketing, superlinear) to the last few bits of a double.
+ZoomWeights LensSystem::solveZoomForEfl(const LensPrescription& p, double eflMm, const LensState& state) {
+    auto eflAt = [&](int a, int b, double t) {
+        ZoomWeights w;
+        w.a = a;
+        w.b = b;
+        w.t = t;
+        const LensSystem lens = buildAt(p, LensState{"", state.objectDistanceMm, {}}, w);
+        return paraxialEflMm(lens, lens.indicesAt(kLineDNm));
+    };
+    const int n = static_cast<int>(p.zoomPositions.size());
+    std::vector<double> efls;
+    for (int i = 0; i < n; ++i) efls.push_back(eflAt(i, i, 0.0));
+    for (int i = 0; i < n; ++i) {
+        if (efls[i] == eflMm) {
+            ZoomWeights w;
+            w.a = w.b = i;
+            w.focalLengthMm = eflMm;
+            return w;
+        }
+    }
+    for (int i = 0; i + 1 < n; ++i) {
+        const double f0 = efls[i] - eflMm, f1 = efls[i + 1] - eflMm;
+        if ((f0 < 0.0) == (f1 < 0.0)) continue;
+        boost::uintmax_t iterations = 200;
+        const auto [lo, hi] = boost::math::tools::toms748_solve(
+            [&](double t) { return eflAt(i, i + 1, t) - eflMm; }, 0.0, 1.0, f0, f1,
+            boost::math::tools::eps_tolerance<double>(std::numeric_limits<double>::digits - 3), iterations);
+        ZoomWeights w;
+        w.a = i;
+        w.b = i + 1;
+        w.t = 0.5 * (lo + hi);
+        w.focalLengthMm = eflMm;
+        return w;
+    }
+    std::string positions;
+    for (int i = 0; i < n; ++i) {
+        char buffer[96];
+        std::snprintf(buffer, sizeof buffer, "%s%s %.3f mm", i ? ", " : "", p.zoomPositions[i].name.c_str(), efls[i]);
+        positions += buffer;
+    }
+    throw InputError(p.sourceFile, 0,
+                     "zoom focal length " + formatMm(eflMm) + " mm is outside the lens's range: its paraxial EFL is " +
+                         positions + ", and between them the gaps run linearly");
+}
+
 LensSystem LensSystem::build(const LensPrescription& p, const LensState& state) {
+    if (p.zoomPositions.empty() && !state.zoom.empty()) {
+        // Say which state the file holds: a library file may be one state of a zoom lens.
+        const LensSystem fixed = build(p, LensState{"", state.objectDistanceMm, {}});
+        char efl[64];
+        std::snprintf(efl, sizeof efl, "%.3f", paraxialEflMm(fixed, fixed.indicesAt(kLineDNm)));
+        throw InputError(p.sourceFile, 0,
+                         "zoom '" + state.zoom + "' asked, but the lens has no zoom positions: the file holds one state, " +
+                             "paraxial EFL " + efl + " mm" + (p.focalLengthMm ? " (stated " + formatMm(*p.focalLengthMm) + " mm)" : "") +
+                             ", and cannot be zoomed");
+    }
+    ZoomWeights zoom = resolveZoom(p, state.zoom);
+    if (zoom.solveForEflMm) zoom = solveZoomForEfl(p, *zoom.solveForEflMm, state);
+    return buildAt(p, state, zoom);
+}
+
+LensSystem LensSystem::buildAt(const LensPrescription& p, const LensState& state, const ZoomWeights& zoom) {
     LensSystem lens;
     lens.name_ = p.name;
     lens.sourceFile_ = p.sourceFile;
@@ -116,7 +166,6 @@ LensSystem LensSystem::build(const LensPrescription& p, const LensState& state) 
     if (static_cast<int>(p.rows.size()) > kMaxSurfaces)
         throw InputError(p.sourceFile, 0, "more than " + std::to_string(kMaxSurfaces) + " surfaces");
 
-    const ZoomWeights zoom = resolveZoom(p, state.zoom);
     lens.zoomName_ = zoom.name;
     lens.zoomFocalLengthMm_ = zoom.focalLengthMm;
 

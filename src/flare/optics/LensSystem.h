@@ -16,8 +16,12 @@
 
 namespace flare {
 
+struct ZoomWeights;
+
 struct LensState {
-    std::string zoom;  // "" = first zoom position; a position name, or a focal length in mm
+    // "" = first zoom position; a position name, or a focal length in mm: the state between the
+    // bracketing positions (gaps linear between them) whose paraxial EFL at the d line is that length.
+    std::string zoom;
     std::optional<double> objectDistanceMm;  // focus; default: the prescription's (infinity)
     std::optional<double> fNumber;           // stop down the iris; default: wide open
 };
@@ -61,7 +65,8 @@ public:
     bool isReflecting(int i) const;
     SpectralIndices indicesAt(double wavelengthNm) const;
 
-    // Resolved zoom: the position's name (or "" when interpolated) and nominal focal length.
+    // Resolved zoom: the position's name (or "" when interpolated) and its focal length: the
+    // position's stated one, or the EFL asked for (and reached) between positions.
     const std::string& zoomName() const { return zoomName_; }
     std::optional<double> zoomFocalLengthMm() const { return zoomFocalLengthMm_; }
     double objectDistanceMm() const { return objectDistanceMm_; }
@@ -69,6 +74,9 @@ public:
     double totalTrackMm() const { return sensorZMm_ - (surfaces_.empty() ? 0.0 : surfaces_[0].vertexZMm); }
 
 private:
+    static LensSystem buildAt(const LensPrescription& prescription, const LensState& state, const ZoomWeights& zoom);
+    static ZoomWeights solveZoomForEfl(const LensPrescription& prescription, double eflMm, const LensState& state);
+
     std::string name_;
     std::string sourceFile_;
     std::vector<Surface> surfaces_;

@@ -12,6 +12,7 @@
 
 #include "flare/core/Error.h"
 #include "flare/core/TextEncoding.h"
+#include "flare/core/Warnings.h"
 #include "flare/optics/LensFile.h"
 #include "flare/optics/LensSystem.h"
 #include "flare/optics/Paraxial.h"
@@ -26,13 +27,6 @@ constexpr double kMgF2Index = 1.38;
 constexpr double kMgF2DesignNm = 550.0;
 // The primary wavelength a file without wavelength lines has (OpticStudio's default).
 constexpr double kDefaultPrimaryUm = 0.55;
-
-// The shortest text that reads back as the same double.
-std::string formatNumber(double value) {
-    char buffer[64];
-    const auto [end, ec] = std::to_chars(buffer, buffer + sizeof buffer, value);
-    return std::string(buffer, end);
-}
 
 // Keywords that describe what flare does not model or computes itself (fields, wavelengths
 // beyond the primary, ray aiming, tolerances, editor state, notes): read past in silence.
@@ -102,7 +96,7 @@ private:
     void warn(int line, const std::string& problem) {
         const std::string text = file_ + ":" + std::to_string(line) + ": " + problem;
         if (warnings_) warnings_->push_back(text);
-        else std::fprintf(stderr, "flare: warning: %s\n", text.c_str());
+        else flare::warn(text);
     }
 
     // Field `index` of a line as a number; `what` names it in errors.
@@ -130,6 +124,7 @@ private:
     void readOperand(const std::string& keyword, const std::vector<std::string_view>& tokens, int line);
     Medium medium(const ZemaxSurface& s, std::string* text) const;
     void buildZoom(LensPrescription& p, const std::vector<int>& rowOfSurface);
+    void applyFlareNotes(LensPrescription& p);
 
     std::string file_;
     std::vector<std::string>* warnings_;
@@ -145,6 +140,11 @@ private:
     std::vector<ZemaxSurface> surfaces_;
     int configurations_ = 1, activeConfiguration_ = 1, configurationLine_ = 0;
     std::map<int, ThicknessOperand> thicknessOperands_;  // by surface
+    // flare's own lines in the file's notes (`NOTE 0 flare: iris blades=7`, written by writeZemax):
+    // what a .zmx file cannot say, kept where Zemax keeps and ignores it. Text after "flare:", line.
+    std::vector<std::pair<std::string, int>> flareNotes_;
+    std::vector<ZoomPosition> notedPositions_;  // from a `flare: zoom` note, in configuration order
+    int notedPositionsLine_ = 0;
     std::vector<std::pair<int, int>> thicknessSolves_;    // TCOM: surface, line
 };
 
@@ -244,14 +244,14 @@ Medium ZemaxReader::medium(const ZemaxSurface& s, std::string* text) const {
         // Model glass: GLAS name 1 0 nd vd dPgF ...
         if (g.numbers.size() < 3) failSurface(g.line, s.number, "GLAS", "a model glass needs nd and Vd");
         const double nd = g.numbers[1], vd = g.numbers[2];
-        if (nd <= 1.0 || nd > 3.0) failSurface(g.line, s.number, "GLAS", "model glass nd must lie in (1, 3], got " + formatNumber(nd));
+        if (nd <= 1.0 || nd > 3.0) failSurface(g.line, s.number, "GLAS", "model glass nd must lie in (1, 3], got " + shortestNumberText(nd));
         // Vd = 0: no dispersion (how the writer states a constant index).
         if (vd == 0.0) {
-            *text = "n=" + formatNumber(nd);
+            *text = "n=" + shortestNumberText(nd);
             return Medium::constant(nd);
         }
-        if (vd < 5.0 || vd > 150.0) failSurface(g.line, s.number, "GLAS", "model glass Vd must lie in [5, 150], got " + formatNumber(vd));
-        *text = formatNumber(nd) + "/" + formatNumber(vd);
+        if (vd < 5.0 || vd > 150.0) failSurface(g.line, s.number, "GLAS", "model glass Vd must lie in [5, 150], got " + shortestNumberText(vd));
+        *text = shortestNumberText(nd) + "/" + shortestNumberText(vd);
         return Medium::abbe(nd, vd);
     }
     if (g.status == 4) {
@@ -269,7 +269,8 @@ Medium ZemaxReader::medium(const ZemaxSurface& s, std::string* text) const {
     if (!glass) glass = findCatalogGlass(g.name);
     if (!glass)
         failSurface(g.line, s.number, "GLAS", "unknown glass '" + g.name +
-                                                  "' (not in the built-in or the shipped catalogues; lenses/glass/README.md)");
+                                                  "' (not in the built-in, the shipped or a private catalogue; lenses/glass/README.md; "
+                                                  "a catalogue of your own: --glass-catalog FILE.agf)");
     if (!coversVisible(*glass))
         failSurface(g.line, s.number, "GLAS", "glass '" + g.name + "' (" + glass->maker + ") is not made for the visible: " +
                                                   validRangeText(*glass));
@@ -342,6 +343,15 @@ LensPrescription ZemaxReader::read(std::string_view bytes) {
                 fail(line, "THIC: a multi-configuration operand before MNUM");
             } else if (inConfigurations && (keyword == "THIC" || kIgnoredOperands.count(keyword) || kUnsupportedOperands.count(keyword))) {
                 readOperand(keyword, tokens, line);
+            } else if (keyword == "NOTE") {
+                // NOTE n text: a note, read past unless it is one of flare's own.
+                std::string_view rest = lineText;
+                for (int field = 0; field < 2 && !rest.empty(); ++field) {
+                    while (!rest.empty() && std::isspace(static_cast<unsigned char>(rest.front()))) rest.remove_prefix(1);
+                    while (!rest.empty() && !std::isspace(static_cast<unsigned char>(rest.front()))) rest.remove_prefix(1);
+                }
+                while (!rest.empty() && std::isspace(static_cast<unsigned char>(rest.front()))) rest.remove_prefix(1);
+                if (rest.substr(0, 6) == "flare:") flareNotes_.push_back({std::string(rest.substr(6)), line});
             } else if (kIgnoredSystemKeywords.count(keyword)) {
                 // read past
             } else if (!surfaces_.empty() && !inConfigurations) {
@@ -403,6 +413,8 @@ LensPrescription ZemaxReader::read(std::string_view bytes) {
         if (!(p.objectDistanceMm > 0.0)) failSurface(object.thicknessLine, 0, "DISZ", "the object distance must be positive or INFINITY");
     }
 
+    applyFlareNotes(p);  // before the rows: a note's coating is what a COAT line names
+
     int stops = 0;
     std::vector<int> rowOfSurface(surfaces_.size(), -1);
     Medium before = Medium::air();  // the medium in front of the surface being read
@@ -440,17 +452,27 @@ LensPrescription ZemaxReader::read(std::string_view bytes) {
         row.mediumAfter = medium(s, &row.materialText);
         if (s.coating) {
             const auto& [coatingName, line] = *s.coating;
-            if (asciiUpper(coatingName) == "AR") {
+            const std::string upper = asciiUpper(coatingName);
+            if (p.findCoating(coatingName) && upper != "MGF2") {
+                // One a flare note defined (or flare's own `none` / `mgf2` as written).
+                row.coatingName = coatingName;
+            } else if (upper == "AR" || upper == "MGF2") {
+                // Zemax's AR is one quarter-wave layer of MgF2 at the primary wavelength, and a
+                // material named as a coating is one quarter-wave layer of that material: COAT
+                // MGF2 is the same layer. At 550 nm it is flare's mgf2.
                 const double primaryNm = primaryUm * 1000.0;
                 if (primaryNm == kMgF2DesignNm) {
                     row.coatingName = "mgf2";
                 } else {
-                    if (!p.findCoating("AR")) p.coatings.push_back(Coating::quarterWave("AR", kMgF2Index, primaryNm));
-                    row.coatingName = "AR";
+                    if (!p.findCoating(upper)) p.coatings.push_back(Coating::quarterWave(upper, kMgF2Index, primaryNm));
+                    row.coatingName = upper;
                 }
-            } else if (asciiUpper(coatingName) != "NONE") {
+            } else if (upper == "NONE") {
+                row.coatingName = "none";
+            } else {
                 warn(line, "surface " + std::to_string(n) + ", COAT: coating '" + coatingName +
-                               "' is not one flare knows (only Zemax's AR is read): the surface is left uncoated");
+                               "' is not one flare knows (AR, MGF2, NONE, or one a `flare: coating` note defines): the "
+                               "surface is left uncoated");
             }
         }
         if (s.stop && ++stops > 1) failSurface(s.line, n, "STOP", "a second aperture stop");
@@ -508,6 +530,26 @@ LensPrescription ZemaxReader::read(std::string_view bytes) {
     return p;
 }
 
+// flare's notes: iris and coating lines as in a .lens file; a zoom line's names and focal lengths,
+// applied to the configurations by buildZoom. Anything else is a warning (a newer flare's note).
+void ZemaxReader::applyFlareNotes(LensPrescription& p) {
+    for (const auto& [text, line] : flareNotes_) {
+        const std::vector<std::string_view> tokens = splitWhitespace(text);
+        const std::string key = tokens.empty() ? "" : asciiLower(tokens[0]);
+        if (key == "iris" || key == "coating") {
+            parseLensHeaderLine(p, text, file_, line);
+        } else if (key == "zoom") {
+            if (!notedPositions_.empty()) fail(line, "flare: zoom: given twice");
+            LensPrescription names;  // the .lens reader checks the zoom line (names, increasing focal lengths)
+            parseLensHeaderLine(names, text, file_, line);
+            notedPositions_ = names.zoomPositions;
+            notedPositionsLine_ = line;
+        } else {
+            warn(line, "a flare note '" + key + "' this flare does not know: ignored");
+        }
+    }
+}
+
 // Configurations whose thicknesses differ become zoom positions, in increasing focal length
 // (their EFL at the d line), each varying thickness a gap named after its surface (d5: the
 // thickness after surface 5).
@@ -563,14 +605,27 @@ void ZemaxReader::buildZoom(LensPrescription& p, const std::vector<int>& rowOfSu
     for (size_t i = 0; i < efl.size(); ++i) {
         if (!(efl[i].first > 0.0))
             fail(configurationLine_, "configuration " + std::to_string(efl[i].second + 1) +
-                                         " has no positive focal length (EFL " + formatNumber(efl[i].first) + " mm)");
+                                         " has no positive focal length (EFL " + shortestNumberText(efl[i].first) + " mm)");
         if (i > 0 && efl[i].first == efl[i - 1].first)
             fail(configurationLine_, "configurations " + std::to_string(efl[i - 1].second + 1) + " and " +
                                          std::to_string(efl[i].second + 1) +
                                          " have the same focal length: flare's zoom positions must differ in it");
     }
+    // A `flare: zoom` note names the configurations (in their order) with their published focal
+    // lengths; without one they are config1, config2, ... at their EFL.
+    if (!notedPositions_.empty() && notedPositions_.size() != static_cast<size_t>(configurations_)) {
+        warn(notedPositionsLine_, "flare: zoom: " + std::to_string(notedPositions_.size()) + " position(s) for " +
+                                      std::to_string(configurations_) + " configurations: the names are left out");
+        notedPositions_.clear();
+    }
     std::vector<ZoomPosition> positions;
-    for (const auto& [focal, c] : efl) positions.push_back({"config" + std::to_string(c + 1), focal});
+    for (const auto& [focal, c] : efl)
+        positions.push_back(notedPositions_.empty() ? ZoomPosition{"config" + std::to_string(c + 1), focal}
+                                                    : notedPositions_[c]);
+    for (size_t i = 1; i < positions.size(); ++i)
+        if (!notedPositions_.empty() && positions[i].focalLengthMm <= positions[i - 1].focalLengthMm)
+            fail(notedPositionsLine_, "flare: zoom: the positions' focal lengths do not increase with the "
+                                      "configurations' EFLs");
     for (VariableGap& gap : p.gaps) {
         std::vector<double> ordered;
         for (const auto& [focal, c] : efl) ordered.push_back(gap.valuesMm[c]);
@@ -578,14 +633,6 @@ void ZemaxReader::buildZoom(LensPrescription& p, const std::vector<int>& rowOfSu
     }
     p.zoomPositions = std::move(positions);
 }
-
-// ---- Writing -------------------------------------------------------------------------------------
-
-// The catalogue a .zmx file names for a glass: an .agf catalogue's own name, the maker of a
-// built-in glass in capitals (its catalogue's file name).
-std::string catalogName(const CatalogGlass& glass) { return asciiUpper(glass.maker); }
-
-void line(std::string& out, const std::string& text) { out += text + "\r\n"; }
 
 }  // namespace
 
@@ -595,105 +642,6 @@ LensPrescription parseZemaxText(std::string_view bytes, const std::string& fileN
 
 LensPrescription loadZemaxFile(const std::string& path, std::vector<std::string>* warnings) {
     return parseZemaxText(readFileBytes(path, "lens file"), path, warnings);
-}
-
-std::string writeZemax(const LensPrescription& p) {
-    // Every zoom position resolved once: its thicknesses (an `auto` one is the focus solve's).
-    std::vector<LensSystem> positions;
-    if (p.zoomPositions.empty()) positions.push_back(LensSystem::build(p));
-    for (const ZoomPosition& z : p.zoomPositions) positions.push_back(LensSystem::build(p, LensState{z.name, {}, {}}));
-    auto thicknessAt = [&](size_t position, size_t row) {
-        const ThicknessSpec& t = p.rows[row].thickness;
-        switch (t.kind) {
-            case ThicknessSpec::Kind::Value: return t.valueMm;
-            case ThicknessSpec::Kind::Gap: return p.findGap(t.gapName)->valuesMm[position];
-            case ThicknessSpec::Kind::Auto: break;
-        }
-        const LensSystem& lens = positions[position];
-        return lens.sensorZMm() - lens.surface(lens.surfaceCount() - 1).vertexZMm;
-    };
-
-    std::string out;
-    line(out, "MODE SEQ");
-    line(out, "NAME " + p.name);
-    line(out, "UNIT MM X W X CM MR CPMM");
-    if (p.fNumber) line(out, "FNUM " + formatNumber(*p.fNumber) + " 0");
-    std::vector<std::string> catalogs;
-    for (const PrescriptionRow& row : p.rows)
-        if (const CatalogGlass* glass = row.mediumAfter.kind() == Medium::Kind::Catalog ? row.mediumAfter.baseGlass() : nullptr)
-            if (std::find(catalogs.begin(), catalogs.end(), catalogName(*glass)) == catalogs.end())
-                catalogs.push_back(catalogName(*glass));
-    if (!catalogs.empty()) {
-        std::string gcat = "GCAT";
-        for (const std::string& c : catalogs) gcat += " " + c;
-        line(out, gcat);
-    }
-    // The primary wavelength is where Zemax's AR coating is a quarter wave: flare's mgf2 at 550 nm.
-    line(out, "WAVM 1 " + formatNumber(kLineFNm / 1000.0) + " 1");
-    line(out, "WAVM 2 " + formatNumber(kMgF2DesignNm / 1000.0) + " 1");
-    line(out, "WAVM 3 " + formatNumber(kLineCNm / 1000.0) + " 1");
-    line(out, "PWAV 2");
-
-    line(out, "SURF 0");
-    line(out, "  TYPE STANDARD");
-    line(out, "  CURV 0");
-    line(out, std::isinf(p.objectDistanceMm) ? "  DISZ INFINITY" : "  DISZ " + formatNumber(p.objectDistanceMm));
-    std::vector<size_t> varying;  // rows whose thickness differs between positions
-    for (size_t i = 0; i < p.rows.size(); ++i) {
-        const PrescriptionRow& row = p.rows[i];
-        line(out, "SURF " + std::to_string(i + 1));
-        if (row.isStop) line(out, "  STOP");
-        const bool aspheric = std::any_of(row.asphere.begin(), row.asphere.end(), [](double a) { return a != 0.0; });
-        line(out, aspheric ? "  TYPE EVENASPH" : "  TYPE STANDARD");
-        line(out, "  CURV " + formatNumber(row.radiusMm == 0.0 ? 0.0 : 1.0 / row.radiusMm));
-        const Medium& before = i == 0 ? Medium::air() : p.rows[i - 1].mediumAfter;
-        if (!row.isStop && before.isAir() != row.mediumAfter.isAir()) {
-            const std::optional<Coating> coating = p.findCoating(row.coatingName.value_or(p.defaultCoating));
-            if (coating && coating->changesInterface())
-                line(out, "  COAT " + (coating->name == "mgf2" ? std::string("AR") : coating->name));
-        }
-        if (row.conic != 0.0) line(out, "  CONI " + formatNumber(row.conic));
-        if (aspheric) {
-            line(out, "  PARM 1 0");
-            for (int t = 0; t < kAsphereTerms; ++t) line(out, "  PARM " + std::to_string(t + 2) + " " + formatNumber(row.asphere[t]));
-        }
-        const double thickness = thicknessAt(0, i);
-        line(out, "  DISZ " + formatNumber(thickness));
-        for (size_t c = 1; c < positions.size(); ++c)
-            if (thicknessAt(c, i) != thickness && (varying.empty() || varying.back() != i)) varying.push_back(i);
-        const Medium& m = row.mediumAfter;
-        switch (m.kind()) {
-            case Medium::Kind::Air: break;
-            case Medium::Kind::Catalog:
-                line(out, "  GLAS " + std::string(m.baseGlass()->name) + " 0 0 " + formatNumber(m.baseGlass()->nd) + " " +
-                              formatNumber(m.baseGlass()->vd) + " 0 0 0 0 0 0");
-                break;
-            case Medium::Kind::Constant:
-                line(out, "  GLAS ___BLANK 1 0 " + formatNumber(m.nd()) + " 0 0 0 0 0 0 0");
-                break;
-            // nd/Vd media are model glasses; a Cauchy medium's own dispersion is not a .zmx notion,
-            // so it reads back as the nd/Vd medium of the same two numbers.
-            case Medium::Kind::AbbeMatched:
-            case Medium::Kind::Cauchy:
-                line(out, "  GLAS ___BLANK 1 0 " + formatNumber(m.nd()) + " " + formatNumber(m.vd()) + " 0 0 0 0 0 0");
-                break;
-        }
-        line(out, "  DIAM " + formatNumber(row.semiApertureMm));
-        if (row.mechSemiDiameterMm) line(out, "  MEMA " + formatNumber(*row.mechSemiDiameterMm));
-    }
-    line(out, "SURF " + std::to_string(p.rows.size() + 1));
-    line(out, "  TYPE STANDARD");
-    line(out, "  CURV 0");
-    line(out, "  DISZ 0");
-    line(out, "  DIAM " + formatNumber(positions.front().sensorHalfDiagonalMm()));
-    if (positions.size() > 1) {
-        line(out, "MNUM " + std::to_string(positions.size()) + " 1");
-        for (size_t i : varying)
-            for (size_t c = 0; c < positions.size(); ++c)
-                line(out, "THIC " + std::to_string(i + 1) + " " + std::to_string(c + 1) + " " +
-                              formatNumber(thicknessAt(c, i)));
-    }
-    return out;
 }
 
 }  // namespace flare

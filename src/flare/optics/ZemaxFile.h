@@ -10,7 +10,9 @@
 // would change the optics and cannot be kept (tilts, decentres, mirrors, other surface types,
 // non-sequential mode, ...) raises InputError naming the file, the line, the surface and the
 // keyword; what can be left out with a stated fallback (an unknown coating, an unknown keyword) is
-// a warning naming the file and line.
+// a warning naming the file and line. Coatings: AR and MGF2 (a quarter wave of MgF2 at the primary
+// wavelength), NONE, and those flare's notes define. Glasses are looked up in the file's GCAT
+// catalogues, then in every catalogue, the private ones given (useGlassCatalog, AgfCatalog.h) first.
 #pragma once
 
 #include <string>
@@ -22,7 +24,8 @@
 namespace flare {
 
 // `bytes` in either encoding Zemax writes (UTF-16 LE with a byte-order mark, or 8-bit text).
-// Warnings ("file:line: ...") go to `warnings`, or to stderr when it is null.
+// Warnings ("file:line: ...") go to `warnings`, or to flare::warn (core/Warnings.h: stderr unless
+// captured) when it is null.
 LensPrescription parseZemaxText(std::string_view bytes, const std::string& fileName,
                                 std::vector<std::string>* warnings = nullptr);
 LensPrescription loadZemaxFile(const std::string& path, std::vector<std::string>* warnings = nullptr);
@@ -30,9 +33,11 @@ LensPrescription loadZemaxFile(const std::string& path, std::vector<std::string>
 // The prescription as .zmx text (UTF-8, CRLF line ends; encodeUtf16Le gives Zemax's own encoding),
 // in millimetres at the first zoom position, every other position a configuration whose varying
 // thicknesses are THIC operands. An `auto` last thickness is written as the distance the focus
-// solve finds at each position. Only what a .zmx file can say is written: iris blades, sensor,
-// finishes and dirt are not, and a coating other than mgf2 (written as Zemax's AR) keeps only its
-// name. Expects a prescription that builds (one the readers returned).
+// solve finds at each position. What a .zmx file cannot say is written as notes Zemax keeps and
+// ignores (`NOTE 0 flare: ...`, lines of the native format) and parseZemaxText reads back: the iris
+// (blades, rotation, curvature), the zoom positions' names and published focal lengths, and each
+// coating's layers (mgf2 is written as Zemax's AR). The sensor, finishes and dirt are not written.
+// Expects a prescription that builds (one the readers returned).
 std::string writeZemax(const LensPrescription& prescription);
 
 }  // namespace flare

@@ -38,6 +38,13 @@ public:
     // rays); else it varies over the plane (a point's inverse square and obliquity) and beams
     // weight each ray by rayThrough's.
     bool uniformOverPlane() const { return light_.type == LightSpec::Type::Directional; }
+    // Whether the light has an extent (a sun's disk, a disk light's face): gridFor then depends
+    // on (u1, u2).
+    bool hasExtent() const {
+        return light_.type == LightSpec::Type::Directional ? light_.angularDiameterDeg > 0.0
+               : light_.type == LightSpec::Type::Disk      ? light_.radiusMm > 0.0
+                                                           : false;
+    }
 
 private:
     // A disk light's point for (u1, u2): uniform over its area.

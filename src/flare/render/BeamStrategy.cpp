@@ -165,7 +165,7 @@ BeamProbe probeBeamPath(const LensSystem& lens, const SpectralIndices& indices, 
     const BundleTracer probeTracer(lens, indices, estimate.path.reflections);
     PupilRemeshOptions remesh;
     remesh.minLevel = options.beamMeshLevel;
-    const GhostBeam probe = GhostBeam::build(probeTracer, light.report.grid, estimate.lattice, light.masks[slot],
+    const GhostBeam probe = GhostBeam::build(probeTracer, light.report.grid, light.beamLattices[slot], light.masks[slot],
                                              filmFrame(options.film), remesh);
     if (probe.empty()) return out;
     double squaredNorm = 0.0, imageAreaPx2 = 0.0;
@@ -284,7 +284,8 @@ void traceBeam(const LensSystem& lens, const RenderOptions& options, const Photo
             const TraceResult r = beamPath.trace(grid.ray(pupilMm.x, pupilMm.y));
             return r.ok() ? factor * beamPath.clear(rng) : factor;
         };
-    job.beam = GhostBeam::build(bundleTracer, grid, estimate.lattice, light.masks[job.slot], frame, remesh, vertexFactor);
+    job.beam = GhostBeam::build(bundleTracer, grid, light.beamLattices[job.slot], light.masks[job.slot], frame, remesh,
+                                vertexFactor);
 
     // Film units: the pass's image is its accumulated power over photonsPerPass (the film's
     // divisor), and the path's estimate is the mean of its beams.

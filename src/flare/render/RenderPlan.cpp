@@ -21,6 +21,11 @@ constexpr double kMm2PerM2 = 1e6;
 // ghost's landings by up to about a millimetre on a full-frame sensor.
 constexpr int kGuideGrowCells = 4;
 constexpr double kGuideSensorMargin = 0.1;
+// The wavelengths (nm) and the points of the light's rim at which the masks are traced besides
+// the analysis's: near the ends of the range that holds nearly all the colour-matching functions'
+// weight, then between them and the middle.
+constexpr double kMaskProbeNm[] = {410.0, 690.0, 470.0, 620.0};
+constexpr int kMaskProbeRimPoints = 4;
 
 // Whether the order-4 chains are guided, and why. `tooMany`: the lens has more chains than
 // maxAnalysedChains.
@@ -129,6 +134,21 @@ std::vector<PathSpectrum> prunePathsBySpectrum(const LensSystem& lens, const Spe
     return spectra;
 }
 
+// The guide masks' probes: the analysis's own rays first, then the ends and quarters of the
+// visible at the light's centre, then its extent's edge (a sun's rim, a disk's circumference) at
+// the ends and the middle. A path's live region moves with both.
+std::vector<GuideMask::Probe> maskProbes(const LensSystem& lens, const LightSampler& sampler, const PupilGrid& grid,
+                                         double analysisNm) {
+    std::vector<GuideMask::Probe> probes{{grid, lens.indicesAt(analysisNm)}};
+    for (double nm : kMaskProbeNm) probes.push_back({grid, lens.indicesAt(nm)});
+    if (!sampler.hasExtent()) return probes;
+    for (int k = 0; k < kMaskProbeRimPoints; ++k) {
+        const PupilGrid rim = sampler.gridFor(1.0, (k + 0.5) / kMaskProbeRimPoints);
+        for (double nm : {kMaskProbeNm[0], analysisNm, kMaskProbeNm[1]}) probes.push_back({rim, lens.indicesAt(nm)});
+    }
+    return probes;
+}
+
 // Guide masks and strategies of the light's paths, and the beams' rates where `beamLight`.
 void planStrategies(const LensSystem& lens, const Spectrum& spectrum, const RenderOptions& options, bool beamLight,
                     const std::vector<PathSpectrum>& spectra, LightState& state) {
@@ -139,14 +159,16 @@ void planStrategies(const LensSystem& lens, const Spectrum& spectrum, const Rend
     // GuideMask::traced), in parallel over paths; each mask is a pure function of its path.
     const SpectralIndices indices = lens.indicesAt(options.analysis.wavelengthNm);
     const double marginMm = kGuideSensorMargin * lens.sensorHalfDiagonalMm();
+    const std::vector<GuideMask::Probe> probes = maskProbes(lens, state.sampler, report.grid, options.analysis.wavelengthNm);
     tbb::parallel_for(0, state.slots, [&](int slot) {
         const GhostEstimate& estimate = slot == 0 ? report.direct : report.ghosts[slot - 1];
         if (slot > 0 && estimate.pruned) return;
-        state.masks[slot] = GuideMask::traced(lens, indices, report.grid, estimate.path, estimate.pupil,
-                                              kGuideGrowCells, marginMm);
+        state.masks[slot] = GuideMask::traced(lens, probes, estimate.path, estimate.pupil, kGuideGrowCells, marginMm,
+                                              report.grid.halfSizeMm);
         if (state.masks[slot].empty()) return;
         state.strategy[slot] = PathStrategy::Photons;
         if (slot == 0 || !beamLight || estimate.lattice.empty()) return;
+        state.beamLattices[slot] = state.masks[slot].coveringLattice(estimate.lattice);
         BeamProbe probe = probeBeamPath(lens, indices, state, slot, spectra[slot - 1], spectrum, options);
         spectralPower[slot] = probe.spectralPower;
         state.beamWavelengths[slot] = std::move(probe.wavelengths);
@@ -199,6 +221,7 @@ PlannedLight planLight(const LensSystem& lens, const LightSpec& spec, const Rend
     }
 
     state.masks.resize(state.slots);
+    state.beamLattices.resize(state.slots);
     state.ghostLayer.assign(state.slots, -1);
     state.strategy.assign(state.slots, PathStrategy::Unguided);
     state.layer.assign(state.slots, kLayerGhost);

@@ -32,6 +32,9 @@ struct LightState {
     // Slots: 0 the direct image, 1..G the enumerated ghosts in report order.
     std::unordered_map<PathKey, int> slotOfKey;
     std::vector<GuideMask> masks;           // per slot; empty where the slot is not guided
+    // Per beam slot: the cells its beams are meshed on, the analysis's lattice and the mask's
+    // cells it leaves out (GuideMask::coveringLattice), so that the beams cover the mask.
+    std::vector<PupilLattice> beamLattices;
     std::vector<int> ghostLayer;            // per slot: per-ghost film layer, −1 if none
     std::vector<PathStrategy> strategy;     // per slot
     std::vector<int> layer;                 // per slot: the fixed layer its light lands in

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "flare/core/Error.h"
+#include "flare/optics/AgfCatalog.h"
 #include "flare/optics/EmbeddedLenses.h"
 #include "flare/optics/LensFile.h"
 #include "flare/optics/LensLibrary.h"
@@ -153,10 +154,13 @@ std::string resolveLens(const Checker& c, const Node& node, const std::string& b
             if (name == lens.name) return name;
         if (const LibraryLens* lens = LensLibrary::shared().find(name)) return lens->path;
     }
-    c.fail(node.line, "lens",
-           "no lens file '" + file.string() + "'" + (file.string() != value ? " (relative to the scene's folder)" : "") +
-               " and no shipped lens named '" + value + "' (shipped: " + shippedLensNames() +
-               "; nor a library lens of that id: `flare lens list` shows them)");
+    const std::string relative = file.string() != value ? " (relative to the scene's folder)" : "";
+    if (value.find('/') != std::string::npos)
+        c.fail(node.line, "lens",
+               "no lens file '" + file.string() + "'" + relative + " (a shipped lens or library id has no '/')");
+    std::string name = value;
+    if (name.size() > 5 && name.compare(name.size() - 5, 5, ".lens") == 0) name.resize(name.size() - 5);
+    c.fail(node.line, "lens", "no lens file '" + file.string() + "'" + relative + "; " + unknownLensProblem(name));
 }
 
 std::string readFile(const std::string& path) {
@@ -213,14 +217,36 @@ Scene parseSceneText(std::string_view text, const std::string& fileName, const s
     Scene scene;
     scene.sourceFile = fileName;
     c.object(root, "",
-             {"description", "lens", "zoom", "focus_distance_mm", "f_number", "coating", "sensor", "lights", "render",
-              "scattering"});
+             {"description", "lens", "glass_catalog", "zoom", "focus_distance_mm", "f_number", "coating", "sensor",
+              "lights", "render", "scattering"});
 
     if (const Member* m = Checker::find(root, "description")) scene.description = c.string(m->value, "description");
 
     const Member& lens = c.require(root, "", "lens", " (a lens file or a shipped lens: " + shippedLensNames() + ")");
     scene.lens = resolveLens(c, lens.value, baseDir);
     scene.lines.lens = lens.value.line;
+
+    if (const Member* m = Checker::find(root, "glass_catalog")) {
+        // One .agf file or a list of them, relative to the scene's folder, each checked here.
+        const Node& v = m->value;
+        scene.lines.glassCatalog = v.line;
+        std::vector<const Node*> files;
+        if (v.kind == Node::Kind::Array)
+            for (const Node& item : v.items) files.push_back(&item);
+        else files.push_back(&v);
+        if (files.empty()) c.fail(v.line, "glass_catalog", "must name a glass catalogue file (.agf) or a list of them");
+        for (const Node* file : files) {
+            const std::string& name = c.string(*file, "glass_catalog");
+            std::filesystem::path path(name);
+            if (path.is_relative() && !baseDir.empty()) path = std::filesystem::path(baseDir) / path;
+            std::error_code ec;
+            if (!std::filesystem::is_regular_file(path, ec))
+                c.fail(file->line, "glass_catalog",
+                       "no glass catalogue file '" + path.string() + "'" +
+                           (path.string() != name ? " (relative to the scene's folder)" : ""));
+            scene.glassCatalogs.push_back(path.string());
+        }
+    }
 
     if (const Member* m = Checker::find(root, "zoom")) {
         const Node& v = m->value;
@@ -295,6 +321,7 @@ Scene defaultScene() { return parseSceneText(kDefaultScene, "<default scene>", "
 namespace {
 
 LensSystem buildLensAtSceneState(const Scene& scene) {
+    for (const std::string& catalog : scene.glassCatalogs) useGlassCatalog(catalog);  // errors name the .agf file
     LensPrescription prescription = loadLens(scene.lens);  // its own errors name the lens file
     if (scene.coating) {
         // The scene's coating goes on every air–glass surface, replacing the lens's choices.

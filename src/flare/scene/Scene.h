@@ -88,7 +88,7 @@ struct ScatteringSettings {
 // 1-based lines in the scene file of the values that can only be checked once the lens is loaded
 // (0 when the key is absent), so that those errors still point into the scene.
 struct SceneLines {
-    int lens = 0, zoom = 0, focus = 0, fNumber = 0, sensor = 0, resolution = 0, coating = 0;
+    int lens = 0, zoom = 0, focus = 0, fNumber = 0, sensor = 0, resolution = 0, coating = 0, glassCatalog = 0;
     std::vector<int> lights;  // the line of each light's opening brace
 };
 
@@ -105,6 +105,9 @@ struct Scene {
     // Resolved: a path (relative to the scene file's folder, joined with it) of an existing
     // file, or the name of a shipped lens; either can be given to loadLens().
     std::string lens;
+    // Private glass catalogues (.agf) the lens's glasses may come from (`glass_catalog`), resolved
+    // like `lens`; read with the lens (useGlassCatalog, AgfCatalog.h).
+    std::vector<std::string> glassCatalogs;
     LensState lensState;
     std::vector<LightSpec> lights;
     SensorSettings sensor;

@@ -64,6 +64,7 @@ ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGh
     if (budget.seed) overrides.seed = *budget.seed;
     RenderOptions options = sceneRenderOptions(scene, lens, overrides);
     options.tracePhotons = false;
+    options.beamsPerPass = budget.beamsPerPass > 0 ? budget.beamsPerPass : std::max(16, options.beamsPerPass / 2);
     Renderer renderer(lens, scene.lights, options);
     const int replicates = std::max(1, renderer.film().replicates());
     double passS = 0.0;

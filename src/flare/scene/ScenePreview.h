@@ -35,8 +35,11 @@ PreviewLight previewLight(const LightSpec& spec, int wavelengths);
 // many as fit in timeS seconds of wall time from the call, analysis included (at least one per
 // replicate; the pass count then depends on the machine, and is reported).
 struct PreviewBudget {
-    static constexpr int kDefaultPasses = 2;  // about a second on the default scene (docs/BENCHMARKS.md)
+    // Two passes, one per replicate of the beams (so that the preview estimates its error), of
+    // half the render's beams each: together one pass of the render (docs/BENCHMARKS.md).
+    static constexpr int kDefaultPasses = 2;
     int passes = kDefaultPasses;
+    int beamsPerPass = 0;  // per light; 0: half the scene's render.beams_per_pass (at least 16)
     double timeS = 0.0;
     std::optional<std::uint64_t> seed;  // default: the scene's render.seed
     bool higher = false;                // add the guided order-4 chains (the `higher` layer)

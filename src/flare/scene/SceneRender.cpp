@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <utility>
 
+#include "flare/render/RenderReport.h"
 #include "flare/scene/SceneScattering.h"
+#include "flare/scene/SceneStarburst.h"
 
 namespace flare {
 
@@ -66,6 +68,26 @@ bool RenderStopRule::reached(const Renderer& renderer, double elapsedS) const {
     // same seed stops after the same pass).
     if (done >= 2 * kMinPassesToStop && done % std::max(1, done / 16) != 0) return false;
     return renderer.estimatedRelativeError(kGroupFlare) <= targetError;
+}
+
+double RenderStopRule::progress(const Renderer& renderer, double elapsedS) const {
+    const RenderStatistics& s = renderer.statistics();
+    const std::int64_t photonLimit = passesWanted * renderer.options().photonsPerPass();
+    double fraction = photonLimit > 0 ? static_cast<double>(s.photons) / photonLimit : 0.0;
+    if (timeS > 0.0) fraction = std::max(fraction, elapsedS / timeS);
+    const double error = renderer.estimatedRelativeError(kGroupFlare);
+    if (targetError > 0.0 && error > 0.0 && renderer.hasErrorEstimate())
+        fraction = std::max(fraction, std::min(1.0, (targetError * targetError) / (error * error)) *
+                                          std::min(1.0, s.passes / static_cast<double>(kMinPassesToStop)));
+    return std::min(fraction, 1.0);
+}
+
+nlohmann::json sceneRenderReportJson(const Renderer& renderer, const Scene& scene, const LensSystem& lens,
+                                     double targetError, const StarburstImage* starburst) {
+    nlohmann::json report = renderReportJson(
+        renderer, scene.sourceFile.empty() ? "embedded default scene" : scene.sourceFile, lens.name(), targetError);
+    if (starburst) report["diffraction"] = starburstJson(*starburst);
+    return report;
 }
 
 std::vector<ImageLayer> renderLayers(const Renderer& renderer, const StarburstImage* starburst) {

@@ -6,6 +6,8 @@
 #include <optional>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "flare/film/ImageIO.h"
 #include "flare/film/LayerSelection.h"
 #include "flare/optics/LensSystem.h"
@@ -62,7 +64,18 @@ struct RenderStopRule {
     static RenderStopRule make(const Scene& scene, const RenderOptions& options, std::int64_t photons, double timeS,
                                double targetError);
     bool reached(const Renderer& renderer, double elapsedS) const;
+    // The share of the work done, in [0, 1], whichever limit comes first: the photon count, the
+    // time, or the target error (whose square falls as one over the passes for photons, faster
+    // for beams: the time left it implies is an upper bound), the last not before the passes a
+    // stop needs. What `flare render`'s progress bar and the Python module's progress callback show.
+    double progress(const Renderer& renderer, double elapsedS) const;
 };
+
+// The render's report (renderReportJson, RenderReport.h) for the scene: labelled with the scene
+// file (or "embedded default scene") and the lens's name, with the starburst's report under
+// "diffraction" when the render has one. `targetError`: the target it ran to (0: none).
+nlohmann::json sceneRenderReportJson(const Renderer& renderer, const Scene& scene, const LensSystem& lens,
+                                     double targetError, const StarburstImage* starburst = nullptr);
 
 // The render's images in linear Rec.709 RGB, as `flare render` writes them: the main image ""
 // (the sum of the fixed layers, the starburst in place of the direct layer when given), then

@@ -21,6 +21,49 @@ constexpr double kSameEdgeTurnRad = 5.0 * kPi / 180.0;
 
 double sinc(double x) { return std::abs(x) < 1e-4 ? 1.0 - x * x / 6.0 : std::sin(x) / x; }
 
+// The corner term's profile across an edge's spike, K(u): sin²u/u (the exact average over the
+// other edge's fast phase) within kZoneInnerU of the spike, its fringe average 1/(2u) beyond
+// kZoneOuterU, blended smoothly between. K is odd; its integral Kc(z) = ∫_0^|z| K is tabulated
+// (Simpson) to kZoneOuterU and continued analytically, ½ ln(z/kZoneOuterU), beyond.
+constexpr double kZoneInnerU = 0.5 * kCornerZoneU, kZoneOuterU = kCornerZoneU;
+constexpr int kCornerStepsPerUnit = 256;
+
+double cornerProfile(double u) {
+    const double a = std::abs(u);
+    if (a < 1e-8) return u;
+    const double t = std::clamp((a - kZoneInnerU) / (kZoneOuterU - kZoneInnerU), 0.0, 1.0);
+    const double inner = 1.0 - t * t * (3.0 - 2.0 * t);
+    const double s = std::sin(u);
+    return inner * s * s / u + (1.0 - inner) / (2.0 * u);
+}
+
+const std::vector<double>& cornerCumulativeTable() {
+    static const std::vector<double> table = [] {
+        const int n = static_cast<int>(std::ceil(kZoneOuterU * kCornerStepsPerUnit));
+        const double h = kZoneOuterU / n;
+        std::vector<double> c(n + 1, 0.0);
+        for (int i = 0; i < n; ++i)
+            c[i + 1] = c[i] + h / 6.0 * (cornerProfile(i * h) + 4.0 * cornerProfile((i + 0.5) * h) + cornerProfile((i + 1) * h));
+        return c;
+    }();
+    return table;
+}
+
+double cornerCumulative(double z) {
+    z = std::abs(z);
+    const std::vector<double>& c = cornerCumulativeTable();
+    if (z >= kZoneOuterU) return c.back() + 0.5 * std::log(z / kZoneOuterU);
+    const double x = z / kZoneOuterU * (c.size() - 1);
+    const size_t i = std::min(static_cast<size_t>(x), c.size() - 2);
+    return c[i] + (x - i) * (c[i + 1] - c[i]);
+}
+
+// The mean of K over [u − span, u + span].
+double cornerProfileMean(double u, double span) {
+    if (span < 1e-6) return cornerProfile(u);
+    return (cornerCumulative(u + span) - cornerCumulative(u - span)) / (2.0 * span);
+}
+
 double cross(const glm::dvec2& a, const glm::dvec2& b) { return a.x * b.y - a.y * b.x; }
 
 double wrapAngle(double a) {  // to (−π, π]
@@ -140,6 +183,17 @@ ApertureTransform::ApertureTransform(std::vector<glm::dvec2> outline, const Aper
         }
     }
     mergeCurvedEdges();
+    // Corners: consecutive straight edges, neither of them a curved (fanned) one, whose ends meet
+    // (or nearly: a gap shorter than a spike is a corner cut by the outline's sampling).
+    for (size_t i = 0; spikes_.size() > 1 && i < spikes_.size(); ++i) {
+        const size_t j = (i + 1) % spikes_.size();
+        const ApertureEdge &a = spikes_[i], &b = spikes_[j];
+        if (a.fanBeforeRad > 0.0 || a.fanAfterRad > 0.0 || b.fanBeforeRad > 0.0 || b.fanAfterRad > 0.0) continue;
+        const glm::dvec2 end = a.midpointMm + 0.5 * a.lengthMm * a.tangent;
+        const glm::dvec2 start = b.midpointMm - 0.5 * b.lengthMm * b.tangent;
+        if (glm::length(start - end) < options.spikeMinLengthMm)
+            corners_.push_back({static_cast<int>(i), static_cast<int>(j)});
+    }
     smoothDensity_.assign(kSmoothBins, 0.0);
     for (int b = 0; b < kSmoothBins; ++b)  // a [1 2 1]/4 filter hides the bins' quantisation
         smoothDensity_[b] = (mass[(b + kSmoothBins - 1) % kSmoothBins] + 2.0 * mass[b] + mass[(b + 1) % kSmoothBins]) /
@@ -208,10 +262,26 @@ double ApertureTransform::incoherentIntensity(const glm::dvec2& k) const {
         const double s = sinc(0.5 * glm::dot(k, e.tangent) * e.lengthMm);
         spikes += kn * kn * e.lengthMm * e.lengthMm * s * s;
     }
+    for (const ApertureCorner& c : corners_) spikes += cornerInterference(spikes_[c.in], spikes_[c.out], k, 0.0, 0.0);
     const double beta = std::atan2(k.y, k.x);
     const double smooth = smoothDensityMmPerRad(beta) + smoothDensityMmPerRad(beta + kPi);
     const double kNorm = std::sqrt(kk);
     return spikes / (kk * kk) + 2.0 * kPi * smooth / (kk * kNorm);
+}
+
+// Derivation (ApertureTransform.h): the two edges' cross term 2 Re(E_in E_out*) is exactly
+// 2 A_in A_out [cos 2u_in + cos 2u_out − 1 − cos 2(u_in + u_out)]; a cosine whose phase varies fast
+// averages to 0 (the last one always, far from the centre: its phase spans both edges).
+double cornerInterference(const ApertureEdge& in, const ApertureEdge& out, const glm::dvec2& k, double inSpanU,
+                          double outSpanU) {
+    const double pIn = glm::dot(k, in.normal) * in.lengthMm, pOut = glm::dot(k, out.normal) * out.lengthMm;
+    const double uIn = 0.5 * glm::dot(k, in.tangent) * in.lengthMm, uOut = 0.5 * glm::dot(k, out.tangent) * out.lengthMm;
+    const bool nearIn = std::abs(uIn) - inSpanU < kZoneOuterU, nearOut = std::abs(uOut) - outSpanU < kZoneOuterU;
+    if (nearIn && nearOut) return 2.0 * pIn * pOut * sinc(uIn) * sinc(uOut) * std::cos(uIn + uOut);
+    // A = (k·n)/(k·t) = P/(2u).
+    if (nearIn) return -2.0 * (pOut / (2.0 * uOut)) * pIn * cornerProfileMean(uIn, inSpanU);
+    if (nearOut) return -2.0 * (pIn / (2.0 * uIn)) * pOut * cornerProfileMean(uOut, outSpanU);
+    return -2.0 * (pIn / (2.0 * uIn)) * (pOut / (2.0 * uOut));
 }
 
 }  // namespace flare

@@ -13,6 +13,17 @@
 // it stays within `straightToleranceMm` of its chord (λ/8: such an edge diffracts as a straight
 // one) and is long enough for its spike to stay narrower than its own angle to its neighbours;
 // shorter runs make up the smooth part.
+//
+// Summing the edges incoherently misses their interference at the corners they share: an edge's
+// transform is (k·n)(e^{−ik·a} − e^{−ik·b})/(i k·t), a term per end, and two edges meeting at a
+// corner v both carry e^{−ik·v}, so their product does not average out with the fringes. Between
+// the spikes the fringe-averaged |F|²|k|⁴ is Σ_corners (A_out − A_in)², A = (k·n)/(k·t) of the
+// edges before and after the corner, while the edges alone give Σ_edges 2A² (a regular hexagon:
+// two thirds of the truth midway between its spikes, a square: half). The corner term
+// (cornerInterference) is kept for every corner between two straight edges (spikeEdges), in a
+// form that stays finite on the spikes, where A diverges: on edge e's spike (|u_e| small, u = k·t
+// L/2) the other edge's phase varies fast and the term averages to −2 A_other (k·n_e) L_e
+// sin²(u_e)/u_e; away from both spikes to −2 A_in A_out.
 #pragma once
 
 #include <complex>
@@ -31,6 +42,12 @@ struct ApertureEdge {
     // to the next, and its spike spreads over those normals, from β − fanBeforeRad to β +
     // fanAfterRad (half the turn to each neighbouring run of the same edge; 0 at a corner).
     double fanBeforeRad = 0.0, fanAfterRad = 0.0;
+};
+
+// Two straight edges (indices into spikeEdges()) meeting at a corner of the outline, `in` before it
+// and `out` after it (counter-clockwise).
+struct ApertureCorner {
+    int in = 0, out = 0;
 };
 
 struct ApertureTransformOptions {
@@ -56,8 +73,11 @@ public:
     // that a symmetric aperture gives a real transform). F(0) = area.
     std::complex<double> transform(const glm::dvec2& kPerMm) const;
 
-    // The asymptotic, fringe-averaged |F(k)|² (mm⁴): spikes plus smooth halo.
+    // The asymptotic, fringe-averaged |F(k)|² (mm⁴): spikes, their corners and the smooth halo.
     double incoherentIntensity(const glm::dvec2& kPerMm) const;
+    // Corners between two straight edges (no curved edge on either side; a gap shorter than
+    // spikeMinLengthMm between them, a corner cut by the outline's sampling, counts as a corner).
+    const std::vector<ApertureCorner>& corners() const { return corners_; }
     // The straight edges (each run of a curved edge merged into one, with its fan).
     const std::vector<ApertureEdge>& spikeEdges() const { return spikes_; }
     // Smooth part: outline length per radian of outward-normal angle β (mm/rad), and its total.
@@ -69,11 +89,24 @@ private:
 
     std::vector<ApertureEdge> runs_;    // the outline merged into straight runs (exact transform)
     std::vector<ApertureEdge> spikes_;  // the long runs
+    std::vector<ApertureCorner> corners_;
     std::vector<double> smoothDensity_; // per normal-angle bin, mm/rad
     double smoothLengthMm_ = 0.0;
     double areaMm2_ = 0.0, perimeterMm_ = 0.0, diameterMm_ = 0.0;
     glm::dvec2 centroidMm_{0.0};
 };
+
+// Half-width, in an edge's phase u = k·t L/2, of the zone about its spike where the corner terms
+// take their exact profile across it (beyond, their fringe average).
+inline constexpr double kCornerZoneU = 4.0 * 3.14159265358979323846;
+
+// The corner's interference term of the fringe-averaged |F(k)|²·|k|⁴ (dimensionless), the
+// receiving cell spanning ±inSpanU, ±outSpanU of the edges' phases u = k·t L/2 (0: at k alone).
+// Near an edge's spike (|u| < 4π) its sin²u/u is averaged over the span exactly; where both
+// edges are that near (the core of a many-bladed iris) the exact product of the two edges'
+// terms, 2 (k·n_in)L_in (k·n_out)L_out sinc u_in sinc u_out cos(u_in + u_out), is used.
+double cornerInterference(const ApertureEdge& in, const ApertureEdge& out, const glm::dvec2& kPerMm, double inSpanU,
+                          double outSpanU);
 
 // Polygon outline of a circle of radius r (mm) with `segments` vertices, counter-clockwise.
 std::vector<glm::dvec2> circleOutline(double radiusMm, int segments);

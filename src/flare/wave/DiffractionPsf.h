@@ -8,11 +8,12 @@
 // spectral quadrature, so convolving a channel of the direct image with it conserves its energy.
 //
 // Near the centre (|k| up to `coherentFringes` fringes of the aperture, 2π/D each) the exact
-// transform is used, from a table of F on a grid of eight samples per fringe (bicubic), and
-// each pixel is supersampled finely enough to see the fringes; further out, the fringe-averaged
-// asymptote (ApertureTransform::incoherentIntensity), whose spikes are integrated across each
-// pixel exactly (the cumulative of sinc²), and the two are blended over the last 30 % of the
-// coherent range. The model's total energy is computed (the pixels of the window plus the
+// transform is used, from a table of F on a grid of eight samples per fringe (bicubic), each
+// pixel integrated over sub-cells of a quarter fringe by the 2 × 2 Gauss–Legendre rule (box
+// pixels); further out, the fringe-averaged asymptote (ApertureTransform::incoherentIntensity):
+// the spikes integrated across each pixel exactly (the cumulative of sinc²), the corners'
+// interference (its profile across a spike likewise), the halo; the two are blended over the
+// last 30 % of the coherent range. The model's total energy is computed (the pixels of the window plus the
 // asymptote's analytic integral outside it) and the PSF is divided by it, so that it integrates
 // to 1 whatever the small mismatch between the two regimes (reported as parsevalError()).
 #pragma once
@@ -35,7 +36,7 @@ struct DiffractionPsfOptions {
 };
 
 // ∫_{−∞}^{z} sinc²(πx) dx (from 0 to 1): the share of a straight edge's spike, across it, that
-// lies on one side of z transverse widths λ/L.
+// lies on one side of z transverse widths λ/L; beyond four widths, of its fringe average.
 double sincSquaredCumulative(double z);
 
 class DiffractionPsf {
@@ -73,6 +74,10 @@ public:
     const std::vector<Spike>& spikes() const { return spikes_; }
     // The smooth halo's energy per pixel at offset (px), per channel, normalised.
     glm::dvec3 smoothPerPixel(const glm::dvec2& offsetPx) const;
+    // The corners' interference (ApertureTransform::corners) in the pixel at offset (px), per
+    // channel, normalised; it is negative near the spikes of some corners, and the pixel's total
+    // is not.
+    glm::dvec3 cornerPerPixel(const glm::dvec2& offsetPx) const;
 
     const std::vector<SpectralSample>& spectrum() const { return spectrum_; }
     // Radius (px) within which the coherent core is used (at the longest wavelength).
@@ -90,6 +95,7 @@ private:
     double lambdaMaxMm_ = 0.0;
     glm::dvec3 channelWeight_{0.0};  // Σ_λ w_c(λ)
     glm::dvec3 lambdaMeanMm_{0.0};   // Σ_λ w_c(λ) λ / Σ_λ w_c(λ)
+    glm::dvec3 lambdaRmsMm_{0.0};    // (Σ_λ w_c(λ) λ² / Σ_λ w_c(λ))^½
     glm::dmat2 pxPerRad_, radPerPx_;
     double pixelSolidAngle_ = 0.0;   // rad² per px²
     DiffractionPsfOptions options_;

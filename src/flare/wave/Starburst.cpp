@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numbers>
 #include <optional>
 #include <stdexcept>
 
@@ -18,6 +19,7 @@ namespace flare {
 
 namespace {
 
+constexpr double kPi = std::numbers::pi;
 constexpr double kProfileBinPx = 0.25;  // bins of the far part's transverse profiles
 
 double smoothstep(double t) {
@@ -71,13 +73,18 @@ std::vector<float> convolve(const FftPlan& plan, const std::vector<float>& image
 }
 
 // The crop's energy projected across a spike, convolved with the spike's sinc² profile and the
-// receiving pixel's width: a density per pixel across the line, on bins of kProfileBinPx.
+// receiving pixel's width: a density per pixel across the line, on bins of kProfileBinPx, over a
+// band reaching kernelExtent beyond the crop. Every crop point's whole sinc² reaches every bin of
+// the band (not renormalised: the sinc²'s share beyond the band is the far tail's, pixelTail).
 struct TransverseProfile {
     double originPx = 0.0;  // the first bin's centre
     std::vector<double> density;
 
     std::vector<double> cumulative;  // ∫ density up to each bin's centre
 
+    // Where the density is complete (the box filter leaves the two end bins at each side empty).
+    double bandLo() const { return originPx + 2.0 * kProfileBinPx; }
+    double bandHi() const { return originPx + (density.size() - 3.0) * kProfileBinPx; }
     double at(double t) const {
         const double x = (t - originPx) / kProfileBinPx;
         if (x <= 0.0 || x >= density.size() - 1.0) return 0.0;
@@ -107,8 +114,8 @@ TransverseProfile transverseProfile(const std::vector<glm::dvec2>& pointsPx, con
     double extent = 0.0;
     for (const glm::dvec2& p : pointsPx) extent = std::max(extent, std::abs(glm::dot(p, acrossDir)));
     const double kernelExtent = std::min(64.0, 40.0 * sincWidthPx) + 1.0;
-    const int kernelHalf = static_cast<int>(std::ceil(kernelExtent / kProfileBinPx));
-    const int half = static_cast<int>(std::ceil((extent + 1.0) / kProfileBinPx)) + kernelHalf + 4;
+    const int half = static_cast<int>(std::ceil((extent + kernelExtent + 1.0) / kProfileBinPx)) + 4;
+    const int kernelHalf = 2 * half;  // from any crop point to any bin of the band
     std::vector<double> histogram(2 * half + 1, 0.0);
     for (size_t i = 0; i < pointsPx.size(); ++i) {
         const double x = glm::dot(pointsPx[i], acrossDir) / kProfileBinPx + half;
@@ -119,27 +126,43 @@ TransverseProfile transverseProfile(const std::vector<glm::dvec2>& pointsPx, con
     // sinc² across the spike, integrated over each bin exactly; then the pixel's width (a box of
     // four bins, its ends linearly shared).
     std::vector<double> kernel(2 * kernelHalf + 1);
-    double sum = 0.0;
-    for (int j = -kernelHalf; j <= kernelHalf; ++j) {
+    for (int j = -kernelHalf; j <= kernelHalf; ++j)
         kernel[j + kernelHalf] = sincSquaredCumulative((j + 0.5) * kProfileBinPx / sincWidthPx) -
                                  sincSquaredCumulative((j - 0.5) * kProfileBinPx / sincWidthPx);
-        sum += kernel[j + kernelHalf];
-    }
-    for (double& k : kernel) k /= sum;
     const double box[5] = {0.125, 0.25, 0.25, 0.25, 0.125};
+    const int bins = static_cast<int>(histogram.size());
     std::vector<double> blurred(histogram.size(), 0.0), density(histogram.size(), 0.0);
-    for (int i = 0; i < static_cast<int>(histogram.size()); ++i) {
+    for (int i = 0; i < bins; ++i) {
         if (histogram[i] == 0.0) continue;
-        for (int j = -kernelHalf; j <= kernelHalf; ++j)
-            if (i + j >= 0 && i + j < static_cast<int>(blurred.size())) blurred[i + j] += histogram[i] * kernel[j + kernelHalf];
+        for (int j = 0; j < bins; ++j) blurred[j] += histogram[i] * kernel[j - i + kernelHalf];
     }
-    for (int i = 2; i + 2 < static_cast<int>(blurred.size()); ++i)
+    for (int i = 2; i + 2 < bins; ++i)
         for (int j = -2; j <= 2; ++j) density[i] += blurred[i + j] * box[j + 2];
     for (double& d : density) d /= kProfileBinPx;
     std::vector<double> cumulative(density.size(), 0.0);
     for (size_t i = 1; i < density.size(); ++i)
         cumulative[i] = cumulative[i - 1] + 0.5 * kProfileBinPx * (density[i - 1] + density[i]);
     return {-half * kProfileBinPx, std::move(density), std::move(cumulative)};
+}
+
+// Beyond the band the crop is a point: the share of a unit sinc² of width `widthPx` in the pixel
+// whose centre lies t px across the line (its width one pixel, as the box above). Beyond four
+// widths sincSquaredCumulative is the fringe average 1 − 1/(2π²z), which gives w/(2π²(t² − ¼)).
+constexpr double kAveragedTailWidths = 4.0;
+double pixelTail(double t, double widthPx) {
+    if (std::abs(t) - 0.5 > kAveragedTailWidths * widthPx) return widthPx / (2.0 * kPi * kPi * (t * t - 0.25));
+    return sincSquaredCumulative((t + 0.5) / widthPx) - sincSquaredCumulative((t - 0.5) / widthPx);
+}
+// The mean over the lines of a fan passing at offsets from tA to tB (all on one side, beyond four
+// widths) of that averaged tail, without its factor w/(2π²): of 1/(y² − ¼), whose primitive is
+// ln|(y − ½)/(y + ½)|; a narrow fan (most of the frame) by the midpoint and its curvature term,
+// f'' Δ²/24 (the next term is below 1e-4 of f for Δ < |y|/5).
+double fannedTailShape(double tA, double tB) {
+    const double spread = std::abs(tB - tA), mid = 0.5 * (tA + tB);
+    const double y2 = mid * mid, inverse = 1.0 / (y2 - 0.25);
+    if (spread < 0.2 * (std::min(std::abs(tA), std::abs(tB)) - 0.5))
+        return inverse + (6.0 * y2 + 0.5) * inverse * inverse * inverse * spread * spread / 24.0;
+    return std::log(std::abs((tB - 0.5) * (tA + 0.5) / ((tB + 0.5) * (tA - 0.5)))) / (tB - tA);
 }
 
 }  // namespace
@@ -293,70 +316,111 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
             for (int c = 0; c < 3; ++c)
                 profiles[s][c] = transverseProfile(cropPoints, cropEnergies[c], spikes[s].transversePx,
                                                    spikes[s].transverseWidthPx[c]);
-        // Row by row (each row's pixels get their additions in a fixed order: deterministic): the
-        // halo everywhere, then each spike over the band of the row where its profile is not zero.
+        // Row by row (each row's pixels get their additions in a fixed order: deterministic), every
+        // pixel of the frame: the halo, each spike (the crop's profile within its band, the point
+        // tail of its sinc² beyond) and the corners' interference. The spikes' tails and the
+        // corners are what lights the frame between the spikes: they fall as 1/r⁴ and reach every
+        // pixel, none is cut off.
         const bool halo = aperture->smoothLengthMm() > 0.0;
+        const bool corners = !aperture->corners().empty();
+        // Per spike, the band any channel's profile covers, and the widest sinc².
+        std::vector<glm::dvec2> bands(spikes.size());
+        std::vector<double> widest(spikes.size());
+        for (size_t s = 0; s < spikes.size(); ++s) {
+            bands[s] = {1e300, -1e300};
+            for (int c = 0; c < 3; ++c) {
+                bands[s].x = std::min(bands[s].x, profiles[s][c].bandLo());
+                bands[s].y = std::max(bands[s].y, profiles[s][c].bandHi());
+            }
+            widest[s] = std::max({spikes[s].transverseWidthPx.x, spikes[s].transverseWidthPx.y, spikes[s].transverseWidthPx.z});
+        }
+        // The averaged tail's factor w/(2π²), with the line's density and the crop's energy.
+        std::vector<glm::dvec3> tailScale(spikes.size());
+        for (size_t s = 0; s < spikes.size(); ++s)
+            tailScale[s] = spikes[s].lineDensity * cropEnergy * spikes[s].transverseWidthPx / (2.0 * kPi * kPi);
         tbb::parallel_for(0, height, [&](int y) {
-            double rowY = 0.0;
             const size_t row = static_cast<size_t>(y) * width;
-            auto add = [&](int x, const glm::dvec3& value) {
-                for (int c = 0; c < 3; ++c) result.xyz[3 * (row + x) + c] += static_cast<float>(value[c]);
-                rowY += value.y;
-            };
-            auto taper = [&](const glm::dvec2& offset) {
-                return smoothstep((glm::length(offset) - taperStart) / taperWidth);
-            };
-            if (halo)
-                for (int x = 0; x < width; ++x) {
-                    const glm::dvec2 offset = glm::dvec2(x + 0.5, y + 0.5) - cropCentre;
-                    const double w = taper(offset);
-                    if (w > 0.0) add(x, w * psf.smoothPerPixel(offset) * cropEnergy);
-                }
+            // Per pixel of the row: the taper's weight, 1/r⁴ and the sum; each spike is added over
+            // the whole row (its cheap far tail first, the pixels near its line after).
+            std::vector<double> taper(width), inverseR4(width);
+            std::vector<glm::dvec3> value(width, glm::dvec3(0.0));
+            std::vector<int> nearLine;
+            for (int x = 0; x < width; ++x) {
+                const glm::dvec2 offset = glm::dvec2(x + 0.5, y + 0.5) - cropCentre;
+                const double r2 = glm::dot(offset, offset);
+                taper[x] = smoothstep((std::sqrt(r2) - taperStart) / taperWidth);
+                inverseR4[x] = taper[x] > 0.0 ? 1.0 / (r2 * r2) : 0.0;
+            }
+            const double dy = y + 0.5 - cropCentre.y;
             for (size_t s = 0; s < spikes.size(); ++s) {
-                const glm::dvec2 across = spikes[s].transversePx;
-                // The pixels of this row that a line of the fan passes within the profiles' reach
-                // of: across(x) = (x + ½ − c.x)·t.x + (y + ½ − c.y)·t.y inside [lo, hi] for the
-                // fan's two extreme lines (t turned by φ), and everything between them.
-                double lo = 1e300, hi = -1e300;
-                for (int c = 0; c < 3; ++c) {
-                    lo = std::min(lo, profiles[s][c].originPx);
-                    hi = std::max(hi, profiles[s][c].originPx + kProfileBinPx * profiles[s][c].density.size());
+                const DiffractionPsf::Spike& spike = spikes[s];
+                const double fanWidth = spike.fanToRad - spike.fanFromRad;
+                nearLine.clear();
+                for (int x = 0; x < width; ++x) {
+                    if (!(taper[x] > 0.0)) continue;
+                    const double dx = x + 0.5 - cropCentre.x;
+                    // The envelope (k·n)²/|k|⁴: 1/r² along the line, falling to 0 across it.
+                    const double along = dx * spike.directionPx.x + dy * spike.directionPx.y;
+                    const double t = dx * spike.transversePx.x + dy * spike.transversePx.y;
+                    const double tA = t - along * spike.fanFromRad, tB = t - along * spike.fanToRad;
+                    const double nearest = std::min(std::abs(tA), std::abs(tB)) - 0.5;
+                    // Wholly beyond the band and four widths (most of the frame), a narrow fan: the
+                    // averaged tail's mean over it by fannedTailShape's midpoint rule.
+                    if ((std::min(tA, tB) > bands[s].y || std::max(tA, tB) < bands[s].x) &&
+                        nearest > kAveragedTailWidths * widest[s] && std::abs(along * fanWidth) < 0.2 * nearest) {
+                        const double mid = 0.5 * (tA + tB), y2 = mid * mid, inverse = 1.0 / (y2 - 0.25);
+                        const double spread2 = along * along * fanWidth * fanWidth;
+                        const double shape = inverse + (6.0 * y2 + 0.5) * inverse * inverse * inverse * spread2 / 24.0;
+                        value[x] += tailScale[s] * (along * along * inverseR4[x] * shape);
+                    } else {
+                        nearLine.push_back(x);
+                    }
                 }
-                double from = 1e300, to = -1e300;
-                bool wholeRow = false;
-                for (const double phi : {spikes[s].fanFromRad, spikes[s].fanToRad}) {
-                    const glm::dvec2 t = std::cos(phi) * across - std::sin(phi) * spikes[s].directionPx;
-                    const double rowPart = (y + 0.5 - cropCentre.y) * t.y;
-                    if (std::abs(t.x) < 1e-9) {
-                        wholeRow = wholeRow || (rowPart >= lo && rowPart <= hi);
+                for (const int x : nearLine) {
+                    const double dx = x + 0.5 - cropCentre.x;
+                    const double along = dx * spike.directionPx.x + dy * spike.directionPx.y;
+                    const double t = dx * spike.transversePx.x + dy * spike.transversePx.y;
+                    const double envelope = along * along * inverseR4[x];
+                    const double tA = t - along * spike.fanFromRad, tB = t - along * spike.fanToRad;
+                    // Wholly beyond the band: the averaged tail's mean over a wide fan (closed form);
+                    // wholly inside it: the profile's; across the band's edge, the fan in pieces of
+                    // at most 4 px of transverse offset, each from the profile where it lies in the
+                    // band, else from the point tail.
+                    if ((std::min(tA, tB) > bands[s].y || std::max(tA, tB) < bands[s].x) &&
+                        std::min(std::abs(tA), std::abs(tB)) - 0.5 > kAveragedTailWidths * widest[s]) {
+                        value[x] += tailScale[s] * (envelope * fannedTailShape(tA, tB));
                         continue;
                     }
-                    const double a = cropCentre.x - 0.5 + (lo - rowPart) / t.x;
-                    const double b = cropCentre.x - 0.5 + (hi - rowPart) / t.x;
-                    from = std::min(from, std::min(a, b));
-                    to = std::max(to, std::max(a, b));
+                    const int pieces = std::clamp(static_cast<int>(std::ceil(std::abs(along * fanWidth) / 4.0)), 1, 16);
+                    const double step = fanWidth / pieces;
+                    for (int c = 0; c < 3; ++c) {
+                        const TransverseProfile& profile = profiles[s][c];
+                        if (std::min(tA, tB) > profile.bandLo() && std::max(tA, tB) < profile.bandHi()) {
+                            value[x][c] += spike.lineDensity[c] * envelope *
+                                           profile.fanned(t, along, spike.fanFromRad, spike.fanToRad);
+                            continue;
+                        }
+                        double share = 0.0;
+                        for (int p = 0; p < pieces; ++p) {
+                            const double from = spike.fanFromRad + p * step, to = from + step;
+                            const double centre = t - along * 0.5 * (from + to);
+                            share += centre > profile.bandLo() && centre < profile.bandHi()
+                                         ? profile.fanned(t, along, from, to)
+                                         : cropEnergy[c] * pixelTail(centre, spike.transverseWidthPx[c]);
+                        }
+                        value[x][c] += spike.lineDensity[c] * envelope * share / pieces;
+                    }
                 }
-                int x0 = 0, x1 = width - 1;
-                if (!wholeRow) {
-                    if (from > to) continue;
-                    x0 = std::max(0, static_cast<int>(std::floor(from)));
-                    x1 = std::min(width - 1, static_cast<int>(std::ceil(to)));
-                }
-                for (int x = x0; x <= x1; ++x) {
-                    const glm::dvec2 offset = glm::dvec2(x + 0.5, y + 0.5) - cropCentre;
-                    const double w = taper(offset);
-                    if (w <= 0.0) continue;
-                    // The envelope (k·n)²/|k|⁴: 1/r² along the line, falling to 0 across it.
-                    const double along = glm::dot(offset, spikes[s].directionPx);
-                    const double t = glm::dot(offset, across);
-                    const double r2 = glm::dot(offset, offset);
-                    const double envelope = w * along * along / (r2 * r2);
-                    glm::dvec3 value;
-                    for (int c = 0; c < 3; ++c)
-                        value[c] = spikes[s].lineDensity[c] * envelope *
-                                   profiles[s][c].fanned(t, along, spikes[s].fanFromRad, spikes[s].fanToRad);
-                    add(x, value);
-                }
+            }
+            double rowY = 0.0;
+            for (int x = 0; x < width; ++x) {
+                if (!(taper[x] > 0.0)) continue;
+                const glm::dvec2 offset = glm::dvec2(x + 0.5, y + 0.5) - cropCentre;
+                if (halo) value[x] += psf.smoothPerPixel(offset) * cropEnergy;
+                if (corners) value[x] += psf.cornerPerPixel(offset) * cropEnergy;
+                const glm::dvec3 v = taper[x] * value[x];
+                for (int c = 0; c < 3; ++c) result.xyz[3 * (row + x) + c] += static_cast<float>(v[c]);
+                rowY += v.y;
             }
             inFrameRows[y] += rowY;
         });

@@ -9,7 +9,10 @@
 //         fringe-averaged asymptote: each straight edge's spike is a line whose energy falls as
 //         1/r², so the crop convolved with it is, far from the crop, the line's envelope times the
 //         crop's energy projected across the line (convolved with the spike's own sinc² profile
-//         and the pixel's width); the smooth halo times the crop's energy.
+//         and the pixel's width) within a band around the line, and beyond it the sinc²'s tail
+//         of the crop's energy taken as a point; the corners' interference (ApertureTransform.h)
+//         and the smooth halo times the crop's energy. Every pixel of the frame gets all of them:
+//         the light between the spikes (the spikes' tails and the corners, 1/r⁴) is not cut off.
 // The window is several crop radii wide, so the far part's envelope is nearly constant across the
 // crop. The PSF integrates to 1, so the starburst holds the crop's energy minus what falls
 // outside the frame, which is reported. Dusty surfaces add their glow (DustGlow.h), `coverage` of

@@ -16,9 +16,11 @@
 #include <vector>
 
 #include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfMultiPartInputFile.h>
+#include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/ImfStandardAttributes.h>
 #include <OpenEXR/ImfStringAttribute.h>
 #include <glm/geometric.hpp>
@@ -202,6 +204,35 @@ TEST_F(ImageIOTest, BadFilesRaiseInputError) {
     std::ofstream(path("cut.exr"), std::ios::binary)
         .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size() / 2));
     EXPECT_THROW(readExr(path("cut.exr")), InputError);
+}
+
+// A data window that starts left of and above the origin (overscan) reads its pixels in place. The
+// reader used to offset its buffer pointer by the window origin in unsigned arithmetic, which for a
+// negative origin wrapped around the address space: undefined behaviour that UBSan reports
+// (scripts/test-sanitize.sh; found by the exr fuzz target), not a wrong value in a plain build.
+TEST_F(ImageIOTest, NegativeDataWindowOriginReadsPixelsInPlace) {
+    const Imath::Box2i window(Imath::V2i(-5, -2), Imath::V2i(1, 0));
+    const int width = 7, height = 3;
+    std::vector<float> rgb(3 * width * height);
+    for (size_t i = 0; i < rgb.size(); ++i) rgb[i] = 0.25f * static_cast<float>(i) + 1.0f;
+    {
+        Imf::Header header(Imath::Box2i(Imath::V2i(0, 0), Imath::V2i(3, 3)), window);
+        Imf::FrameBuffer buffer;
+        for (int c = 0; c < 3; ++c) {
+            const char* name = c == 0 ? "R" : c == 1 ? "G" : "B";
+            header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+            buffer.insert(name, Imf::Slice::Make(Imf::FLOAT, rgb.data() + c, window, 3 * sizeof(float),
+                                                 3 * sizeof(float) * width));
+        }
+        Imf::OutputFile file(path("overscan.exr").c_str(), header);
+        file.setFrameBuffer(buffer);
+        file.writePixels(height);
+    }
+    const std::vector<ImageLayer> back = readExr(path("overscan.exr"));
+    ASSERT_EQ(back.size(), 1u);
+    EXPECT_EQ(back[0].width, width);
+    EXPECT_EQ(back[0].height, height);
+    EXPECT_EQ(back[0].rgb, rgb);
 }
 
 TEST_F(ImageIOTest, NonFiniteValuesAndMismatchedLayersAreRejected) {

@@ -58,6 +58,8 @@ int replayAll(const std::vector<fs::path>& files, const Body& body) {
 
 const std::pair<const char*, Body> kTargets[] = {
     {"lens", fuzz::lensInput},
+    {"zmx", fuzz::zmxInput},
+    {"agf", fuzz::agfInput},
     {"scene", fuzz::sceneInput},
     {"exr", fuzz::exrInput},
     {"checkpoint", fuzz::checkpointInput},
@@ -78,9 +80,12 @@ TEST(FuzzRegressions, SeedCorpusRunsThroughTheTargets) {
     const fs::path dir = test::processTempDir("flare_fuzz_seeds_test");
     fs::remove_all(dir);
     EXPECT_GT(fuzz::writeGeneratedSeeds(dir.string()), 0);
-    EXPECT_GE(replayAll(filesIn(dir / "exr"), fuzz::exrInput), 8);
+    EXPECT_GE(replayAll(filesIn(dir / "exr"), fuzz::exrInput), 9);
     EXPECT_EQ(replayAll(filesIn(dir / "checkpoint"), fuzz::checkpointInput), 2);
     EXPECT_GE(replayAll(filesIn(dir / "vdb"), fuzz::vdbInput), 10);
+    // writeGeneratedSeeds checks that each .zmx and .agf seed parses.
+    EXPECT_GE(replayAll(filesIn(dir / "zmx"), fuzz::zmxInput), 10);
+    EXPECT_EQ(replayAll(filesIn(dir / "agf"), fuzz::agfInput), 7);
     EXPECT_GE(replayAll(filesIn(test::sourcePath("volumes"), ".vdb"), fuzz::vdbInput), 4);
     fs::remove_all(dir);
 }

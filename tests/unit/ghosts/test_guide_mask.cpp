@@ -3,6 +3,7 @@
 // values of TestUtil.h that the sampler tests rely on against published tables.
 #include <cmath>
 #include <set>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -12,6 +13,9 @@
 #include "TestUtil.h"
 #include "flare/core/Random.h"
 #include "flare/ghosts/GuideMask.h"
+#include "flare/optics/SequentialTracer.h"
+#include "flare/photons/LightSampler.h"
+#include "flare/scene/Scene.h"
 
 namespace flare {
 namespace {
@@ -166,6 +170,105 @@ TEST(GuideMask, SamplesAreUniformOverTheMaskAndInsideIt) {
         const glm::dvec2 last = mask.sample(1.0 - 0x1.0p-53, 0.5, 0.5);
         EXPECT_TRUE(mask.contains(last.x, last.y));
     }
+}
+
+// A traced mask holds every cell, near the analysed region, whose ray from some probe (a
+// wavelength, a point of the light) follows the path onto the sensor. The case that called for
+// probes: a car headlight (a disk 90 mm across, 8 m away) through the 28 mm wide angle, whose
+// ghost off the sensor and the third surface crosses the iris three times; its live region
+// (0.6 mm across) moves by four of its cells between 410 and 550 nm. Traced at 550 nm alone, the
+// mask missed cells whose rays the unguided tracer then carried, each with the weight of the whole
+// entrance: the render's heaviest samples.
+TEST(GuideMask, TracedMaskHoldsEveryCellLiveForAnyProbe) {
+    const Scene scene = parseSceneText(R"({
+  "lens": "wide-angle-28mm", "focus_distance_mm": 4000, "f_number": 5.6,
+  "lights": [ { "type": "disk", "position_mm": [-900, -350, -8000], "radius_mm": 90, "spectrum": "d65", "power": 5 } ]
+})", "headlight.json", "");
+    const LensSystem lens = buildSceneLens(scene);
+    const LightSampler sampler(scene.lights[0], lens);
+    const GhostReport report = analyseGhosts(lens, sampler.grid(), GhostAnalysisOptions{});
+    std::vector<GuideMask::Probe> probes{{report.grid, lens.indicesAt(550.0)}};
+    for (double nm : {410.0, 690.0}) probes.push_back({report.grid, lens.indicesAt(nm)});
+    for (double u2 : {0.125, 0.375, 0.625, 0.875})
+        for (double nm : {410.0, 550.0, 690.0}) probes.push_back({sampler.gridFor(1.0, u2), lens.indicesAt(nm)});
+    const double marginMm = 1.0;
+    const double halfW = 0.5 * lens.sensor().widthMm + marginMm, halfH = 0.5 * lens.sensor().heightMm + marginMm;
+    int checkedPaths = 0, missedByOneProbe = 0;
+    for (const GhostEstimate& e : report.ghosts) {
+        if (e.pruned || e.pupil.empty()) continue;
+        const GuideMask mask = GuideMask::traced(lens, probes, e.path, e.pupil, 4, marginMm, report.grid.halfSizeMm);
+        const GuideMask oneProbe =
+            GuideMask::traced(lens, std::span(probes).first(1), e.path, e.pupil, 4, marginMm, report.grid.halfSizeMm);
+        ASSERT_FALSE(mask.empty()) << e.path.label();
+        SequentialPath sequence;
+        sequence.reflections = e.path.reflections;
+        const LivePupilRegion& r = e.pupil;
+        const int frame = 8;  // cells around the analysed region: two rings of growth
+        for (int j = -frame; j < r.cellsB + frame; ++j)
+            for (int i = -frame; i < r.cellsA + frame; ++i) {
+                const double a = r.aMinMm + (i + 0.5) * r.cellMm, b = r.bMinMm + (j + 0.5) * r.cellMm;
+                if (std::max(std::abs(a), std::abs(b)) > report.grid.halfSizeMm - r.cellMm) continue;
+                for (const GuideMask::Probe& probe : probes) {
+                    const TraceResult t = tracePath(lens, probe.indices, probe.grid.ray(a, b), sequence);
+                    if (!t.ok() || std::abs(t.ray.originMm.x) > halfW || std::abs(t.ray.originMm.y) > halfH) continue;
+                    EXPECT_TRUE(mask.contains(a, b)) << e.path.label() << " cell " << i << ", " << j;
+                    missedByOneProbe += !oneProbe.contains(a, b);
+                    break;
+                }
+            }
+        ++checkedPaths;
+    }
+    EXPECT_GT(checkedPaths, 50);
+    // The probes matter: the analysis's rays alone leave such cells out.
+    EXPECT_GT(missedByOneProbe, 0);
+}
+
+// The beams' lattice: the analysis's leaves, and the mask's cells they leave out, so that every
+// point of the mask lies in exactly one leaf and no point outside the window is added.
+TEST(GuideMask, CoveringLatticeCoversTheMaskOnceWithTheOriginalLeaves) {
+    PupilLattice lattice;
+    lattice.windowMinMm = glm::dvec2(-8.0);
+    lattice.windowSizeMm = 16.0;
+    lattice.baseCells = 16;  // level 0: 1 mm cells; level 1: 0.5 mm (the region's)
+    // Level-1 cells (6..7, 6..7) with (7, 7) split into level 2, one of whose quarters is split again.
+    lattice.leaves = {{1, 6, 6}, {1, 7, 6}, {1, 6, 7}, {2, 14, 15}, {2, 15, 14}, {2, 15, 15},
+                      {3, 28, 28}, {3, 29, 28}, {3, 28, 29}, {3, 29, 29}};
+    // A region at level 1 whose corner is lattice point (5, 5): cells 5..10 × 5..9, an L and a
+    // lone cell; grown by one, the mask reaches lattice cells 4..11 (−6 to −2 mm) and beyond.
+    const LivePupilRegion region = makeRegion(-8.0 + 5 * 0.5, -8.0 + 5 * 0.5, 0.5, 6, 5, kLShape);
+    const GuideMask mask(region);
+    const PupilLattice covering = mask.coveringLattice(lattice);
+    ASSERT_GE(covering.leaves.size(), lattice.leaves.size());
+    for (size_t k = 0; k < lattice.leaves.size(); ++k) {
+        EXPECT_EQ(covering.leaves[k].level, lattice.leaves[k].level);
+        EXPECT_EQ(covering.leaves[k].i, lattice.leaves[k].i);
+        EXPECT_EQ(covering.leaves[k].j, lattice.leaves[k].j);
+    }
+    auto leavesHolding = [&](const glm::dvec2& p) {
+        int n = 0;
+        for (const PupilLattice::Leaf& leaf : covering.leaves) {
+            const double h = covering.cellMm(leaf.level);
+            const double x = (p.x - covering.windowMinMm.x) / h, y = (p.y - covering.windowMinMm.y) / h;
+            n += std::floor(x) == static_cast<double>(leaf.i) && std::floor(y) == static_cast<double>(leaf.j);
+        }
+        return n;
+    };
+    // On a 1/16-mm grid of cell interiors over the whole window.
+    int inMask = 0;
+    for (int y = 0; y < 256; ++y)
+        for (int x = 0; x < 256; ++x) {
+            const glm::dvec2 p(-8.0 + (x + 0.5) / 16.0, -8.0 + (y + 0.5) / 16.0);
+            const int n = leavesHolding(p);
+            EXPECT_LE(n, 1) << p.x << ", " << p.y;
+            if (mask.contains(p.x, p.y)) {
+                ++inMask;
+                EXPECT_EQ(n, 1) << p.x << ", " << p.y;
+            }
+        }
+    EXPECT_EQ(inMask, static_cast<int>(std::lround(mask.areaMm2() * 256)));
+    // A mask off the lattice (its corner between lattice points) leaves the lattice as it is.
+    const GuideMask off(makeRegion(-8.0 + 5 * 0.5 + 0.1, -5.5, 0.5, 6, 5, kLShape));
+    EXPECT_EQ(off.coveringLattice(lattice).leaves.size(), lattice.leaves.size());
 }
 
 // The critical values used by the sampler tests, against published tables (NIST/SEMATECH

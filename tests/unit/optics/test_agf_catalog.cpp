@@ -233,6 +233,10 @@ TEST(AgfCatalogErrors, NameTheFileAndLine) {
     expectAgfError(record(2, "1.03 6e-3 abc 2e-2 1.01 103"), 5, "'abc' is not a number");
     expectAgfError(record(14, "1 2 3"), 2, "unknown dispersion formula '14'");
     expectAgfError(record(0, "1"), 2, "unknown dispersion formula '0'");
+    // Beyond int's range: refused before any conversion (converting it was undefined behaviour,
+    // which the fuzz target's UBSan reports; tests/data/fuzz/agf/formula-number-beyond-int-range.agf).
+    expectAgfError("NM A 1e10 0 1.5 60\nCD 2.25 0 0 0 0 0\n", 1, "unknown dispersion formula '1e10'");
+    expectAgfError("NM A -3000000000 0 1.5 60\nCD 2.25 0 0 0 0 0\n", 1, "unknown dispersion formula '-3000000000'");
     expectAgfError("NM A 2 0 1.5\nCD 1 2 3 4 5 6\n", 1, "NM needs");
     expectAgfError("NM A 2 0 x 60\nCD 1 2 3 4 5 6\n", 1, "nd 'x'");
     expectAgfError("CC x\nCD 1 2 3 4 5 6\n", 2, "before any NM");

@@ -167,13 +167,11 @@ surfaces
             EXPECT_NEAR(copy.rows[i].mediumAfter.indexAt(wavelength), original.rows[i].mediumAfter.indexAt(wavelength), 1e-15)
                 << "row " << i + 1 << " " << copy.rows[i].mediumAfter.describe() << " against "
                 << original.rows[i].mediumAfter.describe();
-    ASSERT_EQ(warnings.size(), 1u);
-    EXPECT_NE(warnings[0].find("coating 'hard'"), std::string::npos) << warnings[0];
+    // The lens's own coating comes back from the note the writer puts it in (test_zemax_interop.cpp).
+    EXPECT_TRUE(warnings.empty()) << warnings.front();
     EXPECT_EQ(*copy.rows[0].coatingName, "mgf2");
-    EXPECT_FALSE(copy.rows.back().coatingName.has_value());
-    LensPrescription uncoated = original;
-    uncoated.rows.back().coatingName = "none";
-    expectSameLensAndGhostTable(uncoated, copy, "glasses");
+    EXPECT_EQ(copy.rows.back().coatingName.value_or(""), "hard");
+    expectSameLensAndGhostTable(original, copy, "glasses");
 }
 
 // A small lens in the shape OpticStudio writes: a cemented doublet, the stop on a dummy surface.

@@ -448,7 +448,11 @@ TEST(SceneErrors, NonSquarePixels) {
 
 TEST(SceneErrors, LensNotFound) {
     expectError(scene(kSun).replace(scene(kSun).find("double-gauss-50mm"), 17, "no-such-lens"), 2,
-                {"lens: no lens file 'no-such-lens'", "no shipped lens named 'no-such-lens'", "double-gauss-50mm"});
+                {"lens: no lens file 'no-such-lens'", "or library lens 'no-such-lens'", "double-gauss-50mm",
+                 "was searched"});
+    // A mistyped library id is answered with the ids nearest to it.
+    expectError(scene(kSun).replace(scene(kSun).find("double-gauss-50mm"), 17, "nikon-nikkor-50mm-f1.4"), 2,
+                {"nearest: nikon-nikkor-50mm-f1.4s"});
 }
 
 TEST(SceneErrors, LensSettingsTheLensCannotTakePointIntoTheScene) {

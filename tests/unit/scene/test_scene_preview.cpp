@@ -62,9 +62,20 @@ TEST(ScenePreview, GhostLayerIsTheRendersBeams) {
 
     PreviewBudget budget;
     budget.passes = 3;
+    budget.beamsPerPass = withPhotons.beamsPerPass;
     const ScenePreview preview = previewScene(scene, lens, false, budget);
     EXPECT_EQ(preview.passes, 3);
     EXPECT_EQ(preview.ghosts, beams.layerXyz(kLayerGhost));
+
+    // The default budget: two passes of half the render's beams (one render pass in all).
+    RenderOptions half = beamsOnly;
+    half.beamsPerPass = withPhotons.beamsPerPass / 2;
+    Renderer halfBeams(lens, scene.lights, half);
+    for (int pass = 0; pass < PreviewBudget::kDefaultPasses; ++pass) halfBeams.runPass();
+    const ScenePreview byDefault = previewScene(scene, lens, false, {});
+    EXPECT_EQ(byDefault.passes, 2);
+    EXPECT_EQ(byDefault.beams, halfBeams.statistics().beams);
+    EXPECT_EQ(byDefault.ghosts, halfBeams.layerXyz(kLayerGhost));
 }
 
 // Against a long render of the beams (the converged ghost image of the 0.53° sun): the preview's
@@ -84,6 +95,7 @@ TEST(ScenePreview, ConvergesToTheRendersGhostImageAndIntegratesTheSunsDisk) {
     PreviewBudget few, many;
     few.passes = 2;
     many.passes = 8;
+    few.beamsPerPass = many.beamsPerPass = referenceOptions.beamsPerPass;  // the render's passes
     const ScenePreview a = previewScene(sun, lens, false, few), b = previewScene(sun, lens, false, many);
     const double errorFew = relativeL2(a.ghosts, truth), errorMany = relativeL2(b.ghosts, truth);
     EXPECT_LT(errorMany, errorFew);
