@@ -190,7 +190,7 @@ PlannedLight planLight(const LensSystem& lens, const LightSpec& spec, const Rend
     // light for a point or disk (its centre), so that masks and beams see its live regions.
     GhostReport analysed = analyseGhosts(lens, sampler.grid(), options.analysis);
     PlannedLight planned{LightState{std::move(sampler), WavelengthSampler(spectrum), std::move(analysed),
-                                    {}, {}, {}, {}, {}, {}, {}, {}, 0, 0},
+                                    {}, {}, {}, {}, {}, {}, {}, {}, {}, 0, 0},
                          LightPlan{}};
     LightState& state = planned.state;
     LightPlan& plan = planned.plan;

@@ -228,11 +228,25 @@ TEST_F(ImageIOTest, NegativeDataWindowOriginReadsPixelsInPlace) {
         file.setFrameBuffer(buffer);
         file.writePixels(height);
     }
+    // As stored: the data window, placed relative to the display window's corner.
+    const ExrImage stored = readExrImage(path("overscan.exr"));
+    ASSERT_EQ(stored.layers.size(), 1u);
+    EXPECT_EQ(stored.layers[0].x, -5);
+    EXPECT_EQ(stored.layers[0].y, -2);
+    EXPECT_EQ(stored.layers[0].width, width);
+    EXPECT_EQ(stored.layers[0].height, height);
+    EXPECT_EQ(stored.layers[0].rgb, rgb);
+    // Over the frame (the display window, 4 × 4): the window's pixels at x, y ≥ 0 in place, zero elsewhere.
     const std::vector<ImageLayer> back = readExr(path("overscan.exr"));
     ASSERT_EQ(back.size(), 1u);
-    EXPECT_EQ(back[0].width, width);
-    EXPECT_EQ(back[0].height, height);
-    EXPECT_EQ(back[0].rgb, rgb);
+    ASSERT_EQ(back[0].width, 4);
+    ASSERT_EQ(back[0].height, 4);
+    std::vector<float> expected(3 * 4 * 4, 0.0f);
+    for (int y = 0; y <= 0; ++y)
+        for (int x = 0; x <= 1; ++x)
+            for (int c = 0; c < 3; ++c)
+                expected[(static_cast<size_t>(y) * 4 + x) * 3 + c] = rgb[(static_cast<size_t>(y + 2) * width + x + 5) * 3 + c];
+    EXPECT_EQ(back[0].rgb, expected);
 }
 
 TEST_F(ImageIOTest, NonFiniteValuesAndMismatchedLayersAreRejected) {

@@ -63,6 +63,7 @@ TEST(GhostLayers, PreviewFootprintsAreTightAndAddUpToTheGhostLayer) {
     const LensSystem lens = buildSceneLens(scene);
     PreviewBudget budget;
     budget.passes = 3;
+    budget.beamsPerPass = sceneRenderOptions(scene, lens, {}).beamsPerPass;  // the render's passes
     ScenePreview preview = previewScene(scene, lens, true, budget);
     const std::vector<ImageLayer> layers = previewLayers(preview, true);
     const auto ghost = std::find_if(layers.begin(), layers.end(), [](const ImageLayer& l) { return l.name == "ghost"; });
