@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,25 @@ inline std::filesystem::path processTempDir(const std::string& name) {
     const auto dir = scratchRoot() / name;
     std::filesystem::create_directories(dir);
     return dir;
+}
+
+// A fresh, empty folder `name` under the process's scratch folder `area` (removed with it).
+inline std::filesystem::path freshDir(const std::string& area, const std::string& name) {
+    const std::filesystem::path dir = processTempDir(area) / name;
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    return dir;
+}
+
+// A small, quick scene written into `dir` (the default sun through the double Gauss at 96 × 64
+// pixels, three preview wavelengths, no diffraction); returns its path.
+inline std::string writeTinyScene(const std::filesystem::path& dir) {
+    const std::string path = (dir / "tiny.json").string();
+    std::ofstream(path) << R"({"lens": "double-gauss-50mm", "f_number": 4,
+        "sensor": {"resolution": [96, 64]},
+        "lights": [{"type": "directional", "field_deg": [11, 8], "angular_diameter_deg": 0.53}],
+        "render": {"preview_wavelengths": 3, "diffraction": false}})";
+    return path;
 }
 
 inline std::string sourcePath(const std::string& relative) {

@@ -29,24 +29,6 @@ namespace {
 namespace fs = std::filesystem;
 using test::CliRun;
 
-// A fresh folder per test under the process's scratch root (removed with it).
-fs::path freshDir(const std::string& name) {
-    const fs::path dir = test::processTempDir("cli_outputs") / name;
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    return dir;
-}
-
-// A small, quick scene (the default sun through the double Gauss at 96 × 64 pixels).
-std::string tinyScene(const fs::path& dir) {
-    const std::string path = (dir / "tiny.json").string();
-    std::ofstream(path) << R"({"lens": "double-gauss-50mm", "f_number": 4,
-        "sensor": {"resolution": [96, 64]},
-        "lights": [{"type": "directional", "field_deg": [11, 8], "angular_diameter_deg": 0.53}],
-        "render": {"preview_wavelengths": 3, "diffraction": false}})";
-    return path;
-}
-
 std::string readAll(const fs::path& file) {
     std::ifstream in(file, std::ios::binary);
     std::ostringstream s;
@@ -66,7 +48,7 @@ std::vector<std::string> leftovers(const fs::path& dir, const std::vector<std::s
 constexpr char kExrMagic[] = {0x76, 0x2f, 0x31, 0x01};
 
 TEST(CliOutputs, FifoStaysAFifoAndReceivesTheImage) {
-    const fs::path dir = freshDir("fifo");
+    const fs::path dir = test::freshDir("cli_outputs", "fifo");
     const fs::path fifo = dir / "image.exr";
     ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
     // A reader on the FIFO for as long as the command runs (opened first, without blocking, so
@@ -89,7 +71,7 @@ TEST(CliOutputs, FifoStaysAFifoAndReceivesTheImage) {
             }
         }
     });
-    const CliRun r = test::runCli("preview " + tinyScene(dir) + " -o " + fifo.string() + " --quiet");
+    const CliRun r = test::runCli("preview " + test::writeTinyScene(dir) + " -o " + fifo.string() + " --quiet");
     done.store(true);
     reader.join();
     ::close(fd);
@@ -105,10 +87,10 @@ TEST(CliOutputs, FifoStaysAFifoAndReceivesTheImage) {
 // As root, `-o /dev/null` replaced the device with an EXR. Tested on a node of /dev/null's kind
 // made in a scratch folder (mknod needs root: skipped otherwise), never on /dev/null itself.
 TEST(CliOutputs, CharacterDeviceStaysTheDevice) {
-    const fs::path dir = freshDir("device");
+    const fs::path dir = test::freshDir("cli_outputs", "device");
     const fs::path node = dir / "null";
     if (::mknod(node.c_str(), S_IFCHR | 0666, makedev(1, 3)) != 0) GTEST_SKIP() << "mknod needs root";
-    for (const std::string& command : {"preview " + tinyScene(dir) + " --quiet -o " + node.string(),
+    for (const std::string& command : {"preview " + test::writeTinyScene(dir) + " --quiet -o " + node.string(),
                                        "lens draw double-gauss-50mm -o " + node.string()}) {
         const CliRun r = test::runCli(command);
         EXPECT_EQ(r.exitCode, 0) << r.out;
@@ -121,7 +103,7 @@ TEST(CliOutputs, CharacterDeviceStaysTheDevice) {
 }
 
 TEST(CliOutputs, SymbolicLinkIsFollowedToItsTarget) {
-    const fs::path dir = freshDir("link");
+    const fs::path dir = test::freshDir("cli_outputs", "link");
     fs::create_directories(dir / "real");
     std::ofstream(dir / "real" / "drawing.svg") << "old";
     fs::create_symlink("real/drawing.svg", dir / "link.svg");
@@ -142,8 +124,8 @@ TEST(CliOutputs, SymbolicLinkIsFollowedToItsTarget) {
 // An output that cannot be written (nothing can be created in /proc, even by root) stops the
 // command before any work, with exit code 2 naming it; the other outputs are not written either.
 TEST(CliOutputs, UnwritableOutputFailsBeforeAnyWorkAndNothingIsWritten) {
-    const fs::path dir = freshDir("unwritable");
-    const std::string scene = tinyScene(dir), ok = (dir / "ok.exr").string();
+    const fs::path dir = test::freshDir("cli_outputs", "unwritable");
+    const std::string scene = test::writeTinyScene(dir), ok = (dir / "ok.exr").string();
     const std::string report = (dir / "ok.json").string();
     const std::string commands[] = {
         "preview " + scene + " -o " + ok + " --png /proc/flare-test.png",
@@ -179,7 +161,7 @@ TEST(CliOutputs, UnwritableOutputFailsBeforeAnyWorkAndNothingIsWritten) {
 // A lens whose name holds bytes that are not UTF-8: --json replaces them (U+FFFD) instead of
 // failing with exit code 1 (nlohmann::json's type_error.316).
 TEST(CliOutputs, NameThatIsNotUtf8DoesNotBreakJson) {
-    const fs::path dir = freshDir("utf8");
+    const fs::path dir = test::freshDir("cli_outputs", "utf8");
     const std::string shipped = readAll(test::sourcePath("lenses/double-gauss-50mm.lens"));
     const std::size_t at = shipped.find("\nname ");
     ASSERT_NE(at, std::string::npos);

@@ -19,22 +19,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path freshDir(const std::string& name) {
-    const fs::path dir = test::processTempDir("png_exposure") / name;
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    return dir;
-}
-
-std::string tinyScene(const fs::path& dir) {
-    const std::string path = (dir / "tiny.json").string();
-    std::ofstream(path) << R"({"lens": "double-gauss-50mm", "f_number": 4,
-        "sensor": {"resolution": [96, 64]},
-        "lights": [{"type": "directional", "field_deg": [11, 8], "angular_diameter_deg": 0.53}],
-        "render": {"preview_wavelengths": 3, "diffraction": false}})";
-    return path;
-}
-
 // The PNG's 8-bit RGB pixels (libpng's simplified API).
 std::vector<std::uint8_t> readPng(const fs::path& path, int& width, int& height) {
     png_image png{};
@@ -66,8 +50,8 @@ double mean(const std::vector<std::uint8_t>& pixels) {
 }
 
 TEST(PngExposure, ExposureInStopsScalesTheLinearImageBeforeTheToneCurve) {
-    const fs::path dir = freshDir("stops");
-    const std::string scene = tinyScene(dir);
+    const fs::path dir = test::freshDir("png_exposure", "stops");
+    const std::string scene = test::writeTinyScene(dir);
     const fs::path exr = dir / "p.exr";
     double previousMean = -1.0;
     for (double stops : {-2.0, 3.0, 9.5}) {
@@ -88,8 +72,8 @@ TEST(PngExposure, ExposureInStopsScalesTheLinearImageBeforeTheToneCurve) {
 }
 
 TEST(PngExposure, TheAutomaticExposureIsSaidInStopsAndTheRenderTakesTheOptionToo) {
-    const fs::path dir = freshDir("auto");
-    const std::string scene = tinyScene(dir);
+    const fs::path dir = test::freshDir("png_exposure", "auto");
+    const std::string scene = test::writeTinyScene(dir);
     const test::CliRun automatic = test::runCli("preview " + scene + " -o " + (dir / "a.exr").string() + " --png " +
                                                 (dir / "a.png").string());
     ASSERT_EQ(automatic.exitCode, 0) << automatic.out;
