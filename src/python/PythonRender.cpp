@@ -197,7 +197,8 @@ RenderResult render(const Scene& scene, const RenderArguments& arguments, const 
 ExrCompression compression(const std::string& name) {
     if (name == "zip") return ExrCompression::Zip;
     if (name == "piz") return ExrCompression::Piz;
-    throw py::value_error("compression: zip or piz, not \"" + name + "\"");
+    if (name == "none") return ExrCompression::None;
+    throw py::value_error("compression: zip, piz or none, not \"" + name + "\"");
 }
 
 // flare.write_exr: the images (a mapping from layer name to array; "" the main image) in the
@@ -338,7 +339,7 @@ void registerRender(py::module_& m) {
           py::arg("compression") = "zip",
           "Writes images (a mapping from layer name to float32 array (height, width, 3), linear Rec.709 RGB; '' the "
           "main image, written first; other names become EXR layers name.R/G/B) as the CLI writes its EXRs: "
-          "losslessly compressed ('zip' or 'piz'), 32-bit float except the layers named in half_layers (half "
+          "losslessly compressed ('zip' or 'piz') or not at all ('none'), 32-bit float except the layers named in half_layers (half "
           "precision, refused for values half cannot keep), the Rec.709 chromaticities and each metadata pair as a "
           "string attribute; all or nothing (a partial file never stands under the name). read_exr reads it back.");
 }

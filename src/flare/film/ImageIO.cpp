@@ -179,7 +179,11 @@ void writeExr(OutputFiles& outputs, const std::string& path, const std::vector<I
 
     // The first part: the whole-frame layers, the chromaticities and the metadata.
     Imf::Header first(width, height);
-    first.compression() = options.compression == ExrCompression::Piz ? Imf::PIZ_COMPRESSION : Imf::ZIP_COMPRESSION;
+    switch (options.compression) {
+        case ExrCompression::None: first.compression() = Imf::NO_COMPRESSION; break;
+        case ExrCompression::Zip: first.compression() = Imf::ZIP_COMPRESSION; break;
+        case ExrCompression::Piz: first.compression() = Imf::PIZ_COMPRESSION; break;
+    }
     Imf::addChromaticities(
         first, Imf::Chromaticities(Imath::V2f(kRec709RedXy[0], kRec709RedXy[1]),
                                    Imath::V2f(kRec709GreenXy[0], kRec709GreenXy[1]),

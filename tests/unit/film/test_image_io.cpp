@@ -95,7 +95,7 @@ TEST_F(ImageIOTest, ExrRoundTripsLayersExactlyWithNamesAndMetadata) {
 }
 
 // PIZ (what renders write) is lossless too, for float and half-precision layers alike.
-TEST_F(ImageIOTest, PizRoundTripsExactly) {
+TEST_F(ImageIOTest, PizAndUncompressedRoundTripExactly) {
     ImageLayer grain{"grain", 37, 21, std::vector<float>(37 * 21 * 3)};
     std::uint32_t state = 12345;
     for (float& v : grain.rgb) {
@@ -115,6 +115,14 @@ TEST_F(ImageIOTest, PizRoundTripsExactly) {
     EXPECT_EQ(back[1].rgb, zip[1].rgb);
     EXPECT_NE(back[1].rgb, grain.rgb) << "rounded to half's precision";
     EXPECT_EQ(Imf::InputFile(path("piz.exr").c_str()).header().compression(), Imf::PIZ_COMPRESSION);
+    // Uncompressed (the preview's single image): the same pixels, stored as they are.
+    options.compression = ExrCompression::None;
+    options.storage.clear();
+    writeExr(path("none.exr"), layers, {}, options);
+    const std::vector<ImageLayer> none = readExr(path("none.exr"));
+    ASSERT_EQ(none.size(), 2u);
+    EXPECT_EQ(none[1].rgb, grain.rgb);
+    EXPECT_EQ(Imf::InputFile(path("none.exr").c_str()).header().compression(), Imf::NO_COMPRESSION);
 }
 
 TEST_F(ImageIOTest, HalfAndHalfPrecisionLayersKeepElevenSignificantBits) {
