@@ -5,7 +5,8 @@ The collection gives one zoom state of each zoom (its first). LensVisualizer tra
 same patent tables with every zoom state: the states' focal lengths, the variable gaps at infinity
 focus and, for a variable-aperture zoom, the f-number of each state. For every library file tagged
 `zoom-first-position-only` whose radii match such a table (the rule of the import script's
-match_zoom: the same radii row by row, the table's first state's gaps equal to the file's), this
+match_zoom: the same radii row by row, one of the table's states' gaps equal to the file's: usually
+the first, sometimes another), this
 writes the states as zoom positions (`zoom`, `gap` lines; `f_number` per position for a
 variable-aperture zoom, the file's own f-number kept at the first) and keeps the result only if
 `flare lens check` passes at every position: the paraxial EFL within 1 % of the state's published
@@ -45,6 +46,9 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import import_lens_library as imp  # noqa: E402  (the LensVisualizer reader and the check runner)
 
 MAX_STATES = 6
+# Two transcriptions of one patent table print its gaps to 0.01 mm (or finer): a gap of the file and
+# the table's at the same state differ by at most that.
+GAP_TOLERANCE_MM = 0.0101
 # LensCheck.h's kFNumberRounding: a stop within this of the stated f-number passes the stop check.
 F_NUMBER_ROUNDING = 0.05
 
@@ -97,12 +101,18 @@ def merged_text(text, table, f_numbers, commit):
         row = table["labels"].index(label)
         if row + 1 == len(rows):
             continue  # the back focus: the sensor is placed by the focus solve
-        if abs(values[0] - float(rows[row][1][1])) > 1e-3:
-            return None
         if max(values) - min(values) > 1e-9:
             gaps[row] = values
     if not gaps:
         return None
+    # The state the file holds: the first whose every variable gap is the file's, to the rounding of
+    # two transcriptions that print gaps to 0.01 mm (the collection's is usually the first state;
+    # some files hold another, e.g. the tele end).
+    held = [k for k in range(n)
+            if all(abs(values[k] - float(rows[row][1][1])) <= GAP_TOLERANCE_MM for row, values in gaps.items())]
+    if not held:
+        return None
+    held = held[0]
     stated_f = None
     for line in lines:
         tokens = line.split("#")[0].split()
@@ -112,10 +122,12 @@ def merged_text(text, table, f_numbers, commit):
               f"table's, as transcribed in LensVisualizer (github.com/ronbuening/LensVisualizer, {table['file']}, "
               f"commit {commit[:12]}; no licence stated there: only the patent's numbers are taken, and the radii were "
               f"matched to this file), merged by scripts/merge_zoom_states.py")
+    if held:
+        source += f"; this file held the table's state {held + 1} ({names[held]}, its focal length {table['focal_lengths'][held]:g} mm)"
     if f_numbers:
-        source += (f"; the f-numbers of the later states are LensVisualizer's nominalFno (the patent's, or the marketed "
-                   f"value where it rounds), the first keeps this file's f/{stated_f:g}; the check below confirms the "
-                   f"stop opens to each")
+        source += (f"; the f-numbers of the other states are LensVisualizer's nominalFno (the patent's, or the marketed "
+                   f"value where it rounds), the one this file held keeps its f/{stated_f:g}; the check below confirms "
+                   f"the stop opens to each")
     out = []
     for i, line in enumerate(lines):
         tokens = line.split("#")[0].split()
@@ -125,7 +137,7 @@ def merged_text(text, table, f_numbers, commit):
         elif tokens and tokens[0] == "focal_length_mm":
             out.append("zoom            " + " ".join(f"{nm}={f:.2f}" for nm, f in zip(names, table["focal_lengths"])))
         elif tokens and tokens[0] == "f_number" and f_numbers:
-            values = [stated_f] + f_numbers[1:]
+            values = f_numbers[:held] + [stated_f] + f_numbers[held + 1:]
             out.append("f_number        " + " ".join(f"{nm}={v:g}" for nm, v in zip(names, values)))
         elif tokens and tokens[0] == "default_coating":
             out.append(line)
@@ -144,7 +156,7 @@ def merged_text(text, table, f_numbers, commit):
             lines2[line_index] = (f"   {parts[0]:<13s} {parts[1]:<11s} {parts[2]:<17s} {parts[3]:<10s}" +
                                   (" " + " ".join(parts[4:]) if len(parts) > 4 else "") +
                                   (f"  #{comment}" if hash_ else "")).rstrip()
-    stated = [stated_f] + f_numbers[1:] if f_numbers else [stated_f] * n
+    stated = f_numbers[:held] + [stated_f] + f_numbers[held + 1:] if f_numbers else [stated_f] * n
     return "\n".join(lines2) + "\n", names, stated
 
 
