@@ -332,7 +332,10 @@ def lensvisualizer_zooms(git_dir):
         focal_lengths = [float(x) for x in re.findall(number, zoom.group(1))]
         rows = re.findall(r'\{\s*label:\s*"([^"]+)",\s*R:\s*(' + number + r')', text)
         gaps = {}
-        for label, body in re.findall(r'"([^"]+)":\s*\[((?:\s*\[[^\]]*\],?)+)\s*\]', var.group(1)):
+        # A gap's label is a quoted string ("27A": ...) or, in some files, a bare number (13: ...).
+        for quoted, bare, body in re.findall(r'(?:"([^"]+)"|\b(\d+[A-Za-z]?)):\s*\[((?:\s*\[[^\]]*\],?)+)\s*\]',
+                                             var.group(1)):
+            label = quoted or bare
             states = re.findall(r"\[([^\]]*)\]", body)
             gaps[label] = [float(re.findall(number, st)[0]) for st in states]
         if len(focal_lengths) < 2 or not rows or any(len(v) != len(focal_lengths) for v in gaps.values()):

@@ -5,21 +5,36 @@ The collection gives one zoom state of each zoom (its first). LensVisualizer tra
 same patent tables with every zoom state: the states' focal lengths, the variable gaps at infinity
 focus and, for a variable-aperture zoom, the f-number of each state. For every library file tagged
 `zoom-first-position-only` whose radii match such a table (the rule of the import script's
-match_zoom: the same radii row by row, the table's first state's gaps equal to the file's), this
+match_zoom: the same radii row by row, one of the table's states' gaps equal to the file's: usually
+the first, sometimes another), this
 writes the states as zoom positions (`zoom`, `gap` lines; `f_number` per position for a
 variable-aperture zoom, the file's own f-number kept at the first) and keeps the result only if
 `flare lens check` passes at every position: the paraxial EFL within 1 % of the state's published
-focal length, the stop opening to the state's f-number, the axial ray fan at it passing. A table
+focal length, the stop opening to the state's f-number, the axial ray fan at it passing.
+
+The iris. The file's stop row gives one semi-aperture (the collection's, for its first state). A
+zoom's iris opens as it zooms: a constant-aperture zoom keeps its f-number only because its stop
+opens wider towards tele, and a variable-aperture zoom's later f-numbers are what its iris gives
+there. Where the file's stop does not open to a state's stated f-number, the merge gives the stop
+row a semi-aperture per position (an `aperture iris ...` line, docs/lens-format.md): the file's at
+every state where it opens far enough, elsewhere the radius that opens to the stated f-number
+exactly (paraxially the f-number goes as 1/radius: r = r_file * F_file / F_stated, rounded up to
+0.1 um). Neither source prints the stop's diameter per state (the patents print F-numbers); the
+stated F-number is the datum, the radius follows from it. The checks are then run again unchanged:
+the stop check now confirms the arithmetic, and the ray fan whether the wider beam passes every
+other clear aperture (the collection's diameters, mostly estimates). A table
 with more than MAX_STATES states is not a patent's list of states (LensVisualizer samples some zoom
 cams finely) and is not used. Failures are listed in set-aside.json as `zoom-merge-*` (the file
 ships as its one state). Only the patents' numbers are taken from LensVisualizer (no licence
 stated there). Idempotent.
 
-Usage:  /usr/bin/python3 scripts/merge_zoom_states.py lenses/library LENSVISUALIZER.git build/src/flare
-(scripts/import_lens_library.py runs it when given --lensvisualizer.)
+Usage:  /usr/bin/python3 scripts/merge_zoom_states.py lenses/library LENSVISUALIZER.git build/src/flare [--skip ID ...]
+(scripts/import_lens_library.py runs it when given --lensvisualizer.) --skip leaves a library file
+as it is (one being reworked by hand).
 """
 
 import json
+import math
 import os
 import re
 import shutil
@@ -31,6 +46,11 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import import_lens_library as imp  # noqa: E402  (the LensVisualizer reader and the check runner)
 
 MAX_STATES = 6
+# Two transcriptions of one patent table print its gaps to 0.01 mm (or finer): a gap of the file and
+# the table's at the same state differ by at most that.
+GAP_TOLERANCE_MM = 0.0101
+# LensCheck.h's kFNumberRounding: a stop within this of the stated f-number passes the stop check.
+F_NUMBER_ROUNDING = 0.05
 
 
 def _rows(text):
@@ -43,6 +63,16 @@ def _rows(text):
         if tokens:
             rows.append((i, tokens))
     return lines, rows
+
+
+def _same_radii(a, b):
+    """The radii of a library file and of a table, both rounded to 0.01 mm, are the same: the file
+    prints six significant figures of the collection's radius, so a value on a rounding boundary
+    can round to the neighbouring hundredth (-181.2948 is -181.295 in the file, -181.3 rounded);
+    a plane is 0 in the file and may be a huge radius in the table."""
+    def plane(r):
+        return 0.0 if abs(r) > 1e6 else r
+    return len(a) == len(b) and all(abs(plane(x) - plane(y)) <= 0.0101 for x, y in zip(a, b))
 
 
 def _f_numbers(git_dir, path, count):
@@ -60,7 +90,7 @@ def merged_text(text, table, f_numbers, commit):
     """The file with the table's states as zoom positions, or None when the table does not match."""
     lines, rows = _rows(text)
     radii = tuple(round(0.0 if t[0] == "inf" else float(t[0]), 2) for _, t in rows if t[0] != "stop")
-    if radii != table["key"] or len(table["labels"]) != len(rows):
+    if not _same_radii(radii, table["key"]) or len(table["labels"]) != len(rows):
         return None
     n = len(table["focal_lengths"])
     names = ["wide", "tele"] if n == 2 else ["wide"] + (["mid"] if n == 3 else [f"mid{i}" for i in range(1, n - 1)]) + ["tele"]
@@ -71,12 +101,18 @@ def merged_text(text, table, f_numbers, commit):
         row = table["labels"].index(label)
         if row + 1 == len(rows):
             continue  # the back focus: the sensor is placed by the focus solve
-        if abs(values[0] - float(rows[row][1][1])) > 1e-3:
-            return None
         if max(values) - min(values) > 1e-9:
             gaps[row] = values
     if not gaps:
         return None
+    # The state the file holds: the first whose every variable gap is the file's, to the rounding of
+    # two transcriptions that print gaps to 0.01 mm (the collection's is usually the first state;
+    # some files hold another, e.g. the tele end).
+    held = [k for k in range(n)
+            if all(abs(values[k] - float(rows[row][1][1])) <= GAP_TOLERANCE_MM for row, values in gaps.items())]
+    if not held:
+        return None
+    held = held[0]
     stated_f = None
     for line in lines:
         tokens = line.split("#")[0].split()
@@ -86,10 +122,12 @@ def merged_text(text, table, f_numbers, commit):
               f"table's, as transcribed in LensVisualizer (github.com/ronbuening/LensVisualizer, {table['file']}, "
               f"commit {commit[:12]}; no licence stated there: only the patent's numbers are taken, and the radii were "
               f"matched to this file), merged by scripts/merge_zoom_states.py")
+    if held:
+        source += f"; this file held the table's state {held + 1} ({names[held]}, its focal length {table['focal_lengths'][held]:g} mm)"
     if f_numbers:
-        source += (f"; the f-numbers of the later states are LensVisualizer's nominalFno (the patent's, or the marketed "
-                   f"value where it rounds), the first keeps this file's f/{stated_f:g}; the check below confirms the "
-                   f"stop opens to each")
+        source += (f"; the f-numbers of the other states are LensVisualizer's nominalFno (the patent's, or the marketed "
+                   f"value where it rounds), the one this file held keeps its f/{stated_f:g}; the check below confirms "
+                   f"the stop opens to each")
     out = []
     for i, line in enumerate(lines):
         tokens = line.split("#")[0].split()
@@ -99,7 +137,7 @@ def merged_text(text, table, f_numbers, commit):
         elif tokens and tokens[0] == "focal_length_mm":
             out.append("zoom            " + " ".join(f"{nm}={f:.2f}" for nm, f in zip(names, table["focal_lengths"])))
         elif tokens and tokens[0] == "f_number" and f_numbers:
-            values = [stated_f] + f_numbers[1:]
+            values = f_numbers[:held] + [stated_f] + f_numbers[held + 1:]
             out.append("f_number        " + " ".join(f"{nm}={v:g}" for nm, v in zip(names, values)))
         elif tokens and tokens[0] == "default_coating":
             out.append(line)
@@ -118,10 +156,73 @@ def merged_text(text, table, f_numbers, commit):
             lines2[line_index] = (f"   {parts[0]:<13s} {parts[1]:<11s} {parts[2]:<17s} {parts[3]:<10s}" +
                                   (" " + " ".join(parts[4:]) if len(parts) > 4 else "") +
                                   (f"  #{comment}" if hash_ else "")).rstrip()
-    return "\n".join(lines2) + "\n", names
+    stated = f_numbers[:held] + [stated_f] + f_numbers[held + 1:] if f_numbers else [stated_f] * n
+    return "\n".join(lines2) + "\n", names, stated
 
 
-def apply(folder, git_dir, flare):
+IRIS = "iris"
+
+
+def opened_text(text, names, stated, positions):
+    """The merged file with the stop row's semi-aperture given per position (an `aperture` line):
+    where the file's stop opens to the position's stated f-number (within the check's rounding) it
+    is kept, elsewhere it is opened to give that f-number exactly. `positions`: `flare lens check`'s
+    per-position report of the merged file (its wide-open f-number with the fixed stop). None when
+    the fixed stop opens far enough everywhere (nothing to open)."""
+    lines, rows = _rows(text)
+    stop = [(i, t) for i, t in rows if t[0] == "stop"]
+    if len(stop) != 1 or len(positions) != len(names):
+        return None
+    line_index, tokens = stop[0]
+    radius = float(tokens[3])
+    radii, opened = [], False
+    for name, f_stated, position in zip(names, stated, positions):
+        assert position["zoom"] == name
+        f_file = position["wide_open_f_number"]
+        if f_file <= f_stated + F_NUMBER_ROUNDING:
+            radii.append(radius)
+        else:
+            radii.append(math.ceil(radius * f_file / f_stated * 1e4) / 1e4)
+            opened = True
+    if not opened:
+        return None
+    widened = [f"{nm}" for nm, r in zip(names, radii) if r != radius]
+    note = (f"# Iris: the stop's semi-aperture per zoom position (aperture {IRIS}): {radius:g} mm as the file gives it "
+            f"where it opens to the stated f-number, opened at {', '.join(widened)} to give the stated f-number there "
+            f"(radius x wide-open f-number with the file's stop / stated f-number; neither source prints the stop "
+            f"diameter per state). Merged by scripts/merge_zoom_states.py.")
+    out = []
+    for i, line in enumerate(lines):
+        toks = line.split("#")[0].split()
+        if i == line_index:
+            body, hash_, comment = line.partition("#")
+            parts = body.split()
+            parts[3] = IRIS
+            out.append((f"   {parts[0]:<13s} {parts[1]:<11s} {parts[2]:<17s} {parts[3]:<10s}" +
+                        (" " + " ".join(parts[4:]) if len(parts) > 4 else "") +
+                        (f"  #{comment}" if hash_ else "")).rstrip())
+            continue
+        if toks and toks[0] == "name":
+            out.append(note)
+        out.append(line)
+        if toks and toks[0] == "default_coating":
+            out.append(f"aperture {IRIS:<5s}" + " ".join(f"{nm}={r:g}" for nm, r in zip(names, radii)))
+    return "\n".join(out) + "\n"
+
+
+def _check_staged(flare, staging, items):
+    """Writes each (key, text) into `staging` and checks them: {key: (staged path, result)}."""
+    paths = {}
+    for key, text in items:
+        staged = os.path.join(staging, key)
+        with open(staged, "w", encoding="utf-8") as f:
+            f.write(text)
+        paths[key] = staged
+    results = imp.check_files(flare, list(paths.values())) if paths else {}
+    return {key: (path, results[path]) for key, path in paths.items()}
+
+
+def apply(folder, git_dir, flare, skip=()):
     tables = imp.lensvisualizer_zooms(git_dir)
     for key, table in tables.items():
         table["key"] = key
@@ -133,44 +234,58 @@ def apply(folder, git_dir, flare):
         index = json.load(f)
     with open(aside_path, encoding="utf-8") as f:
         aside = json.load(f)
-    known_failures = {(e.get("id"), e["cause"]) for e in aside["set_aside"]}
     merged, failed = [], []
     staging = tempfile.mkdtemp(prefix="flare-zoom-merge-")
     candidates = []
     for entry in index["lenses"]:
-        if "zoom-first-position-only" not in entry["tags"]:
+        if "zoom-first-position-only" not in entry["tags"] or entry["id"] in skip:
             continue
         path = os.path.join(folder, entry["file"])
         with open(path, encoding="utf-8") as f:
             text = f.read()
         _, rows = _rows(text)
         radii = tuple(round(0.0 if t[0] == "inf" else float(t[0]), 2) for _, t in rows if t[0] != "stop")
-        table = tables.get(radii)
+        table = tables.get(radii) or next((t for k, t in tables.items() if _same_radii(radii, k)), None)
         if not table or len(table["focal_lengths"]) > MAX_STATES:
             continue
         f_numbers = _f_numbers(git_dir, table["file"], len(table["focal_lengths"]))
         result = merged_text(text, table, f_numbers, commit)
         if not result:
             continue
-        new_text, names = result
-        staged = os.path.join(staging, os.path.basename(path))
-        with open(staged, "w", encoding="utf-8") as f:
-            f.write(new_text)
-        candidates.append((entry, path, staged, new_text, names, table))
+        new_text, names, stated = result
+        candidates.append([entry, path, new_text, names, table, stated])
     try:
-        results = imp.check_files(flare, [c[2] for c in candidates]) if candidates else {}
+        # First with the file's stop as it is; then, where a position's stop does not open to its
+        # stated f-number, with the iris opened there (opened_text), checked again.
+        checked = _check_staged(flare, staging, [(os.path.basename(c[1]), c[2]) for c in candidates])
+        reopened = []
+        for c in candidates:
+            staged, result = checked[os.path.basename(c[1])]
+            if result["ok"] or any(x["check"] == "load" for x in result["failures"]):
+                continue
+            opened = opened_text(c[2], c[3], c[5], result["positions"])
+            if opened:
+                reopened.append((c, opened))
+        rechecked = _check_staged(flare, staging, [("opened-" + os.path.basename(c[1]), t) for c, t in reopened])
+        for c, opened in reopened:
+            staged, result = rechecked["opened-" + os.path.basename(c[1])]
+            c[2] = opened
+            checked[os.path.basename(c[1])] = (staged, result)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
-    for entry, path, staged, new_text, names, table in candidates:
-        result = results[staged]
+    for entry, path, new_text, names, table, stated in candidates:
+        staged, result = checked[os.path.basename(path)]
         if not result["ok"]:
             cause = "zoom-merge-" + imp.cause_of(result["failures"])
             detail = "merged zoom (scripts/merge_zoom_states.py): " + "; ".join(
                 f"{x['check']} ({x['zoom']}): {x['detail'].replace(staged, entry['file'])}" for x in result["failures"])
             failed.append((entry["id"], cause))
-            if not any(i == entry["id"] and c.startswith("zoom-merge") for i, c in known_failures):
-                aside["set_aside"].append({"source_file": entry["source_file"], "id": entry["id"], "cause": cause,
-                                           "detail": detail})
+            # The latest failure replaces an earlier one of this merge (the import's, or a run
+            # before the iris could open per position).
+            aside["set_aside"] = [e for e in aside["set_aside"]
+                                  if not (e.get("id") == entry["id"] and e["cause"].startswith("zoom-merge"))]
+            aside["set_aside"].append({"source_file": entry["source_file"], "id": entry["id"], "cause": cause,
+                                       "detail": detail})
             continue
         checks = [f"# Check: paraxial EFL at {p['zoom']} {p['efl_mm']:.3f} mm (stated {p['stated_focal_length_mm']:.2f} mm), "
                   f"wide open f/{p['wide_open_f_number']:.3f}, ray fan at f/{p['fan_f_number']:.3f}."
@@ -201,9 +316,17 @@ def apply(folder, git_dir, flare):
 
 
 def main():
-    if len(sys.argv) != 4:
+    args = sys.argv[1:]
+    skip = []
+    while "--skip" in args:
+        at = args.index("--skip")
+        if at + 1 >= len(args):
+            raise SystemExit(__doc__)
+        skip.append(args[at + 1])
+        del args[at:at + 2]
+    if len(args) != 3:
         raise SystemExit(__doc__)
-    merged, failed = apply(*sys.argv[1:])
+    merged, failed = apply(*args, skip=skip)
     for lens_id in merged:
         print(f"merged  {lens_id}")
     for lens_id, cause in failed:

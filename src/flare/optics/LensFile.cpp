@@ -144,6 +144,45 @@ void checkAperture(const Parser& parser, const PrescriptionRow& row) {
     }
 }
 
+void unknownAperture(const Parser& parser, const LensPrescription& p, const PrescriptionRow& row) {
+    parser.error(row.line, "unknown aperture '" + row.semiApertureName + "' (define it with a line 'aperture " +
+                               row.semiApertureName + " " +
+                               (p.zoomPositions.empty() ? std::string("POSITION=mm ...") : p.zoomPositions[0].name + "=mm ...") +
+                               "' after the zoom line)");
+}
+
+// A row whose semi-aperture column names an `aperture` line takes as its semiApertureMm the largest
+// opening, which the iris mount must hold (LensSystem::build takes the zoom position's value).
+void checkApertures(const Parser& parser, const LensPrescription& p);
+
+void resolveApertures(const Parser& parser, LensPrescription& p) {
+    checkApertures(parser, p);
+    for (PrescriptionRow& row : p.rows) {
+        if (row.semiApertureName.empty()) continue;
+        const VariableAperture* aperture = p.findAperture(row.semiApertureName);
+        row.semiApertureMm = *std::max_element(aperture->valuesMm.begin(), aperture->valuesMm.end());
+    }
+}
+
+// Only the stop row's semi-aperture may name an `aperture` line (an element's clear aperture is
+// glass and does not change with zoom; the iris does), and every `aperture` line is used.
+void checkApertures(const Parser& parser, const LensPrescription& p) {
+    for (const PrescriptionRow& row : p.rows) {
+        if (row.semiApertureName.empty()) continue;
+        if (!row.isStop)
+            parser.error(row.line, "semi-aperture '" + row.semiApertureName +
+                                       "': only the stop row's semi-aperture may change with zoom (an element's clear "
+                                       "aperture is fixed)");
+        if (!p.findAperture(row.semiApertureName)) unknownAperture(parser, p, row);
+    }
+    for (const VariableAperture& aperture : p.apertures) {
+        const bool used = std::any_of(p.rows.begin(), p.rows.end(),
+                                      [&](const PrescriptionRow& r) { return r.semiApertureName == aperture.name; });
+        if (!used)
+            parser.error(aperture.line, "aperture '" + aperture.name + "' is defined but the stop row does not use it");
+    }
+}
+
 // Checks that apply to every format once all rows are read.
 void validate(const Parser& parser, const LensPrescription& p, int lastLine) {
     if (p.rows.empty()) parser.error(lastLine, "the lens has no surface rows");
@@ -153,6 +192,7 @@ void validate(const Parser& parser, const LensPrescription& p, int lastLine) {
         if (++stops > 1) parser.error(row.line, "a second aperture stop row (only one is allowed)");
     }
     if (stops == 0) parser.error(0, "missing aperture stop: one row must have radius 'stop'");
+    checkApertures(parser, p);
     for (size_t i = 0; i < p.rows.size(); ++i) {
         const PrescriptionRow& row = p.rows[i];
         if (row.thickness.kind == ThicknessSpec::Kind::Auto && i + 1 != p.rows.size())
@@ -358,30 +398,42 @@ void parseHeader(const Parser& parser, LensPrescription& p, const Line& line) {
                 parser.error(n, "zoom positions must be listed in increasing focal length");
             p.zoomPositions.push_back({k, f});
         }
-    } else if (key == "gap") {
-        if (p.zoomPositions.empty()) parser.error(n, "gap lines must follow the zoom line");
-        if (tokens.size() < 2) parser.error(n, "gap needs a name and one value per zoom position");
-        VariableGap gap;
-        gap.name = std::string(tokens[1]);
-        gap.line = n;
-        if (p.findGap(gap.name)) parser.error(n, "gap '" + gap.name + "' is defined twice");
-        std::vector<std::optional<double>> values(p.zoomPositions.size());
+    } else if (key == "gap" || key == "aperture") {
+        // `gap NAME pos=mm ...` (a thickness) or `aperture NAME pos=mm ...` (the stop's
+        // semi-aperture): one value per zoom position, every position.
+        const bool gapLine = key == "gap";
+        if (p.zoomPositions.empty()) parser.error(n, key + " lines must follow the zoom line");
+        if (tokens.size() < 2) parser.error(n, key + " needs a name and one value per zoom position");
+        VariableGap values;
+        values.name = std::string(tokens[1]);
+        values.line = n;
+        if (!std::isalpha(static_cast<unsigned char>(values.name[0])) && values.name[0] != '_')
+            parser.error(n, key + " name '" + values.name + "' must begin with a letter or '_' (a number would be read as a value)");
+        if (gapLine ? p.findGap(values.name) != nullptr : p.findAperture(values.name) != nullptr)
+            parser.error(n, key + " '" + values.name + "' is defined twice");
+        const std::string what = key + " '" + values.name + "'";
+        std::vector<std::optional<double>> byPosition(p.zoomPositions.size());
         for (size_t i = 2; i < tokens.size(); ++i) {
             const auto [k, v] = parser.keyValue(n, tokens[i]);
             auto it = std::find_if(p.zoomPositions.begin(), p.zoomPositions.end(),
                                    [&](const ZoomPosition& z) { return z.name == k; });
-            if (it == p.zoomPositions.end()) parser.error(n, "gap '" + gap.name + "': unknown zoom position '" + k + "'");
-            const double value = parser.finiteNumber(n, v, "gap value");
-            if (value < 0.0) parser.error(n, "gap '" + gap.name + "' is negative at '" + k + "'");
-            values[it - p.zoomPositions.begin()] = value;
+            if (it == p.zoomPositions.end()) parser.error(n, what + ": unknown zoom position '" + k + "'");
+            std::optional<double>& value = byPosition[it - p.zoomPositions.begin()];
+            if (value) parser.error(n, what + ": zoom position '" + k + "' is given twice");
+            if (gapLine) {
+                value = parser.finiteNumber(n, v, "gap value");
+                if (*value < 0.0) parser.error(n, what + " is negative at '" + k + "'");
+            } else {
+                value = parser.finiteNumber(n, v, "aperture value");
+                if (!(*value > 0.0)) parser.error(n, what + " must be positive at '" + k + "'");
+            }
         }
-        for (size_t i = 0; i < values.size(); ++i) {
-            if (!values[i])
-                parser.error(n, "gap '" + gap.name + "' has no value for zoom position '" +
-                                    p.zoomPositions[i].name + "'");
-            gap.valuesMm.push_back(*values[i]);
+        for (size_t i = 0; i < byPosition.size(); ++i) {
+            if (!byPosition[i])
+                parser.error(n, what + " has no value for zoom position '" + p.zoomPositions[i].name + "'");
+            values.valuesMm.push_back(*byPosition[i]);
         }
-        p.gaps.push_back(std::move(gap));
+        (gapLine ? p.gaps : p.apertures).push_back(std::move(values));
     } else if (key == "coating") {
         parseCoating(parser, p, n, tokens);
     } else if (key == "default_coating") {
@@ -450,7 +502,13 @@ PrescriptionRow parseRow(const Parser& parser, const Line& line) {
     }
     row.materialText = std::string(tokens[2]);
     row.mediumAfter = parser.material(n, tokens[2]);
-    row.semiApertureMm = parser.positive(n, tokens[3], "semi_aperture");
+    if (std::isalpha(static_cast<unsigned char>(tokens[3][0])) || tokens[3][0] == '_') {
+        // A name: the stop's semi-aperture per zoom position (an `aperture` line); resolved, and
+        // allowed on the stop row only, once every row is read.
+        row.semiApertureName = std::string(tokens[3]);
+    } else {
+        row.semiApertureMm = parser.positive(n, tokens[3], "semi_aperture");
+    }
     bool dustCoverageGiven = false, greaseCoverageGiven = false;
     for (size_t i = 4; i < tokens.size(); ++i) {
         const auto [key, value] = parser.keyValue(n, tokens[i]);
@@ -556,6 +614,7 @@ LensPrescription parseLensText(std::string_view text, const std::string& fileNam
         });
         if (!used) parser.error(gap.line, "gap '" + gap.name + "' is defined but no row uses it");
     }
+    resolveApertures(parser, p);
     validate(parser, p, lastLine);
     return p;
 }

@@ -14,6 +14,12 @@ const VariableGap* LensPrescription::findGap(const std::string& gapName) const {
     return nullptr;
 }
 
+const VariableAperture* LensPrescription::findAperture(const std::string& apertureName) const {
+    for (const VariableAperture& a : apertures)
+        if (a.name == apertureName) return &a;
+    return nullptr;
+}
+
 std::optional<Coating> LensPrescription::findCoating(const std::string& coatingName) const {
     for (const Coating& c : coatings)
         if (c.name == coatingName) return c;

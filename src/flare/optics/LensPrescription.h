@@ -47,7 +47,10 @@ struct PrescriptionRow {
     ThicknessSpec thickness;
     Medium mediumAfter;
     std::string materialText;  // as written in the file
+    // The clear radius; on a stop row with `semiApertureName` the largest of the aperture's values
+    // (the iris mount holds the widest opening; LensSystem::build takes the position's value).
     double semiApertureMm = 0.0;
+    std::string semiApertureName;  // the stop row's semi-aperture column naming an `aperture` line
     double conic = 0.0;
     std::array<double, kAsphereTerms> asphere{};
     std::optional<double> mechSemiDiameterMm;
@@ -65,11 +68,15 @@ struct ZoomPosition {
     std::optional<double> fNumber;
 };
 
+// A value that changes with the zoom position and runs linearly between positions: a `gap` line
+// (a thickness), or an `aperture` line (the stop's semi-aperture: a zoom's iris opens as the
+// zoom moves, so that a constant-aperture zoom keeps its f-number).
 struct VariableGap {
     std::string name;
     std::vector<double> valuesMm;  // one per zoom position, in ZoomPosition order
     int line = 0;
 };
+using VariableAperture = VariableGap;
 
 struct IrisSpec {
     int blades = 0;  // 0: circular
@@ -95,6 +102,7 @@ struct LensPrescription {
     double housingMarginMm = 1.0;
     std::vector<ZoomPosition> zoomPositions;
     std::vector<VariableGap> gaps;
+    std::vector<VariableAperture> apertures;  // `aperture` lines (only the stop row may name one)
     std::vector<Coating> coatings;    // named coatings defined in the file
     std::string defaultCoating = "none";
     // `finish` and `gloss_exponent` lines; unset: the scene's, else the built-in defaults.
@@ -104,6 +112,7 @@ struct LensPrescription {
 
     int stopRow() const;  // index into rows, −1 if none
     const VariableGap* findGap(const std::string& name) const;
+    const VariableAperture* findAperture(const std::string& name) const;
     // A coating by name: file-defined first, then built-ins ("none", "mgf2").
     std::optional<Coating> findCoating(const std::string& name) const;
 };

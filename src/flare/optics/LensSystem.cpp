@@ -180,6 +180,13 @@ LensSystem LensSystem::buildAt(const LensPrescription& p, const LensState& state
         s.conic = row.conic;
         s.asphere = row.asphere;
         s.semiApertureMm = row.semiApertureMm;
+        if (!row.semiApertureName.empty()) {
+            // The iris of a zoom: its opening at this position, linear between positions like a gap.
+            const VariableAperture* aperture = p.findAperture(row.semiApertureName);
+            if (!aperture)
+                throw InputError(p.sourceFile, row.line, "unknown aperture '" + row.semiApertureName + "'");
+            s.semiApertureMm = (1.0 - zoom.t) * aperture->valuesMm[zoom.a] + zoom.t * aperture->valuesMm[zoom.b];
+        }
         s.vertexZMm = z;
         s.isStop = row.isStop;
         s.fileLine = row.line;
@@ -220,11 +227,16 @@ LensSystem LensSystem::buildAt(const LensPrescription& p, const LensState& state
     // nominal (area-equivalent) radius: the stop's mechanical radius, from which the barrel on
     // both sides of it is sized, must take that in, or light through the opening's corners would
     // pass outside the barrel of the cell beside the stop.
+    // A zoom's iris (an `aperture` line) opens to its position's radius; its mount, and so the
+    // barrel beside it, is sized for the widest opening at any position (stopRow.semiApertureMm).
     const PrescriptionRow& stopRow = p.rows[lens.stopIndex_];
-    lens.iris_ = Iris(p.iris.blades, p.iris.rotationDeg * std::numbers::pi / 180.0,
-                      p.iris.curvature, stopRow.semiApertureMm);
     Surface& stop = lens.surfaces_[lens.stopIndex_];
-    stop.mechSemiDiameterMm = std::max(stop.mechSemiDiameterMm, lens.iris_.circumradiusMm());
+    const double openStopMm = stop.semiApertureMm;
+    lens.iris_ = Iris(p.iris.blades, p.iris.rotationDeg * std::numbers::pi / 180.0,
+                      p.iris.curvature, openStopMm);
+    const Iris widestIris(p.iris.blades, p.iris.rotationDeg * std::numbers::pi / 180.0, p.iris.curvature,
+                          stopRow.semiApertureMm);
+    stop.mechSemiDiameterMm = std::max(stop.mechSemiDiameterMm, widestIris.circumradiusMm());
 
     // Coatings sit on air–glass interfaces only.
     for (size_t i = 0; i < p.rows.size(); ++i) {
@@ -276,8 +288,8 @@ LensSystem LensSystem::buildAt(const LensPrescription& p, const LensState& state
         const double efl = paraxialEflMm(lens, dLine);
         const double pupilRadius = std::abs(efl) / (2.0 * *state.fNumber);
         const double stopRadius = pupilRadius / pupilMagnification(lens, dLine);
-        if (!(*state.fNumber > 0.0) || stopRadius > stopRow.semiApertureMm * (1.0 + 1e-9)) {
-            const double wideOpen = std::abs(efl) / (2.0 * stopRow.semiApertureMm *
+        if (!(*state.fNumber > 0.0) || stopRadius > openStopMm * (1.0 + 1e-9)) {
+            const double wideOpen = std::abs(efl) / (2.0 * openStopMm *
                                                      pupilMagnification(lens, dLine));
             throw InputError(p.sourceFile, 0,
                              "f/" + formatMm(*state.fNumber) + " is not available: the lens opens to f/" +

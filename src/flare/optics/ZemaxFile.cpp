@@ -47,10 +47,10 @@ const std::set<std::string, std::less<>> kIgnoredSurfaceKeywords = {
 const std::set<std::string, std::less<>> kIgnoredOperands = {
     "APER", "WAVE", "WLWT", "XFIE", "YFIE", "FLWT", "FVDX", "FVDY", "FVCX", "FVCY", "FVAN", "PRWV"};
 // Multi-configuration operands that would change the lens between configurations in a way flare's
-// zoom positions cannot (they vary thicknesses only).
+// zoom positions cannot (they vary thicknesses and the stop's semi-diameter only: THIC, SDIA).
 const std::set<std::string, std::less<>> kUnsupportedOperands = {
     "CRVT", "CONN", "GLSS", "PRAM", "PAR1", "PAR2", "PAR3", "PAR4", "PAR5", "PAR6", "PAR7", "PAR8",
-    "XDAT", "SDIA", "CADX", "CADY", "CATX", "CATY", "CATZ", "CBDX", "CBDY", "CBTX", "CBTY", "CBTZ",
+    "XDAT", "CADX", "CADY", "CATX", "CATY", "CATZ", "CBDX", "CBDY", "CBTX", "CBTY", "CBTZ",
     "IGNR", "MIND", "MABB", "COTN", "STPS"};
 
 struct GlassSpec {
@@ -140,6 +140,7 @@ private:
     std::vector<ZemaxSurface> surfaces_;
     int configurations_ = 1, activeConfiguration_ = 1, configurationLine_ = 0;
     std::map<int, ThicknessOperand> thicknessOperands_;  // by surface
+    std::map<int, ThicknessOperand> semiDiameterOperands_;  // SDIA, by surface (the stop's only)
     // flare's own lines in the file's notes (`NOTE 0 flare: iris blades=7`, written by writeZemax):
     // what a .zmx file cannot say, kept where Zemax keeps and ignores it. Text after "flare:", line.
     std::vector<std::pair<std::string, int>> flareNotes_;
@@ -216,19 +217,20 @@ void ZemaxReader::readOperand(const std::string& keyword, const std::vector<std:
     if (kIgnoredOperands.count(keyword)) return;
     if (kUnsupportedOperands.count(keyword))
         fail(line, "multi-configuration operand " + keyword +
-                       " is not supported (flare's zoom positions differ in thicknesses only: THIC)");
-    // THIC surface configuration value ...
-    const int surface = integer(line, tokens, 1, "THIC surface");
-    if (surface < 0) fail(line, "THIC: surface " + std::to_string(surface) + " does not exist");
-    const int configuration = integer(line, tokens, 2, "THIC configuration");
-    const double value = number(line, tokens, 3, "THIC value", true);
+                       " is not supported (flare's zoom positions differ in thicknesses and the stop's semi-diameter "
+                       "only: THIC, SDIA)");
+    // THIC (or SDIA) surface configuration value ...
+    const int surface = integer(line, tokens, 1, keyword + " surface");
+    if (surface < 0) fail(line, keyword + ": surface " + std::to_string(surface) + " does not exist");
+    const int configuration = integer(line, tokens, 2, keyword + " configuration");
+    const double value = number(line, tokens, 3, keyword + " value", true);
     if (configuration < 1 || configuration > configurations_)
-        fail(line, "THIC: configuration " + std::to_string(configuration) + " is outside 1.." +
+        fail(line, keyword + ": configuration " + std::to_string(configuration) + " is outside 1.." +
                        std::to_string(configurations_) + " (MNUM)");
-    ThicknessOperand& op = thicknessOperands_[surface];
+    ThicknessOperand& op = (keyword == "SDIA" ? semiDiameterOperands_ : thicknessOperands_)[surface];
     if (op.values.empty()) op.line = line;
     if (!op.values.emplace(configuration, std::pair{value, line}).second)
-        fail(line, "THIC: surface " + std::to_string(surface) + " is given twice for configuration " +
+        fail(line, keyword + ": surface " + std::to_string(surface) + " is given twice for configuration " +
                        std::to_string(configuration));
 }
 
@@ -339,9 +341,9 @@ LensPrescription ZemaxReader::read(std::string_view bytes) {
                     fail(line, "MNUM: the active configuration must lie in 1.." + std::to_string(configurations_));
                 configurationLine_ = line;
                 inConfigurations = true;
-            } else if (keyword == "THIC" && !inConfigurations) {
-                fail(line, "THIC: a multi-configuration operand before MNUM");
-            } else if (inConfigurations && (keyword == "THIC" || kIgnoredOperands.count(keyword) || kUnsupportedOperands.count(keyword))) {
+            } else if ((keyword == "THIC" || keyword == "SDIA") && !inConfigurations) {
+                fail(line, keyword + ": a multi-configuration operand before MNUM");
+            } else if (inConfigurations && (keyword == "THIC" || keyword == "SDIA" || kIgnoredOperands.count(keyword) || kUnsupportedOperands.count(keyword))) {
                 readOperand(keyword, tokens, line);
             } else if (keyword == "NOTE") {
                 // NOTE n text: a note, read past unless it is one of flare's own.
@@ -592,7 +594,50 @@ void ZemaxReader::buildZoom(LensPrescription& p, const std::vector<int>& rowOfSu
         row.thickness.gapName = gap.name;
         p.gaps.push_back(std::move(gap));
     }
-    if (p.gaps.empty()) return;  // the configurations differ in nothing flare models
+    // SDIA: the stop's semi-diameter per configuration, a zoom's iris that opens as it zooms (an
+    // `aperture` line of a .lens file). Only a flat STOP surface of its own may vary.
+    for (const auto& [surface, op] : semiDiameterOperands_) {
+        if (surface < 1 || surface >= last)
+            fail(op.line, "SDIA: surface " + std::to_string(surface) + " is not a lens surface");
+        for (int c = 1; c <= configurations_; ++c)
+            if (!op.values.count(c))
+                fail(op.line, "SDIA: surface " + std::to_string(surface) + " has no value for configuration " + std::to_string(c));
+        const double first = op.values.begin()->second.first;
+        if (std::all_of(op.values.begin(), op.values.end(), [&](const auto& v) { return v.second.first == first; }))
+            continue;  // the same in every configuration: DIAM says it
+        PrescriptionRow& row = p.rows[rowOfSurface[surface]];
+        if (!row.isStop)
+            fail(op.line, "SDIA: the semi-diameter of surface " + std::to_string(surface) +
+                              " varies between configurations; flare varies only the aperture stop's (a flat STOP "
+                              "surface of its own): an element's clear aperture does not change with zoom");
+        VariableAperture aperture;
+        aperture.name = "stop" + std::to_string(surface);
+        aperture.line = op.line;
+        for (const auto& [c, entry] : op.values) {
+            const auto [value, line] = entry;
+            if (!std::isfinite(value) || !(value > 0.0))
+                fail(line, "SDIA: surface " + std::to_string(surface) + " needs a positive semi-diameter in every configuration");
+            aperture.valuesMm.push_back(value * mmPerUnit_);
+        }
+        row.semiApertureName = aperture.name;
+        row.semiApertureMm = *std::max_element(aperture.valuesMm.begin(), aperture.valuesMm.end());
+        p.apertures.push_back(std::move(aperture));
+    }
+    if (p.gaps.empty()) {
+        // The configurations differ in nothing flare models as a zoom (no thickness varies): the
+        // active configuration's stop is kept.
+        for (VariableAperture& aperture : p.apertures) {
+            for (PrescriptionRow& row : p.rows) {
+                if (row.semiApertureName != aperture.name) continue;
+                warn(aperture.line, "SDIA: the stop's semi-diameter varies between configurations whose thicknesses "
+                                    "do not; flare keeps configuration " + std::to_string(activeConfiguration_) + "'s");
+                row.semiApertureName.clear();
+                row.semiApertureMm = aperture.valuesMm[activeConfiguration_ - 1];
+            }
+        }
+        p.apertures.clear();
+        return;
+    }
 
     // Name the configurations, find their focal lengths and order them by it.
     for (int c = 1; c <= configurations_; ++c) p.zoomPositions.push_back({"config" + std::to_string(c), static_cast<double>(c)});
@@ -626,10 +671,12 @@ void ZemaxReader::buildZoom(LensPrescription& p, const std::vector<int>& rowOfSu
         if (!notedPositions_.empty() && positions[i].focalLengthMm <= positions[i - 1].focalLengthMm)
             fail(notedPositionsLine_, "flare: zoom: the positions' focal lengths do not increase with the "
                                       "configurations' EFLs");
-    for (VariableGap& gap : p.gaps) {
-        std::vector<double> ordered;
-        for (const auto& [focal, c] : efl) ordered.push_back(gap.valuesMm[c]);
-        gap.valuesMm = std::move(ordered);
+    for (std::vector<VariableGap>* values : {&p.gaps, &p.apertures}) {
+        for (VariableGap& value : *values) {
+            std::vector<double> ordered;
+            for (const auto& [focal, c] : efl) ordered.push_back(value.valuesMm[c]);
+            value.valuesMm = std::move(ordered);
+        }
     }
     p.zoomPositions = std::move(positions);
 }

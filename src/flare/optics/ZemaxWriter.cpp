@@ -141,7 +141,10 @@ std::string writeZemax(const LensPrescription& p) {
                 line(out, "  GLAS ___BLANK 1 0 " + shortestNumberText(m.nd()) + " " + shortestNumberText(m.vd()) + " 0 0 0 0 0 0");
                 break;
         }
-        line(out, "  DIAM " + shortestNumberText(row.semiApertureMm));
+        // A zoom's iris (an `aperture` line): the first position's opening here, every position's
+        // as an SDIA operand below.
+        const VariableAperture* aperture = row.semiApertureName.empty() ? nullptr : p.findAperture(row.semiApertureName);
+        line(out, "  DIAM " + shortestNumberText(aperture ? aperture->valuesMm[0] : row.semiApertureMm));
         if (row.mechSemiDiameterMm) line(out, "  MEMA " + shortestNumberText(*row.mechSemiDiameterMm));
     }
     line(out, "SURF " + std::to_string(p.rows.size() + 1));
@@ -155,6 +158,13 @@ std::string writeZemax(const LensPrescription& p) {
             for (size_t c = 0; c < positions.size(); ++c)
                 line(out, "THIC " + std::to_string(i + 1) + " " + std::to_string(c + 1) + " " +
                               shortestNumberText(thicknessAt(c, i)));
+        for (size_t i = 0; i < p.rows.size(); ++i) {
+            if (p.rows[i].semiApertureName.empty()) continue;
+            const VariableAperture* aperture = p.findAperture(p.rows[i].semiApertureName);
+            for (size_t c = 0; c < positions.size(); ++c)
+                line(out, "SDIA " + std::to_string(i + 1) + " " + std::to_string(c + 1) + " " +
+                              shortestNumberText(aperture->valuesMm[c]));
+        }
     }
     return out;
 }
