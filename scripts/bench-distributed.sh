@@ -3,15 +3,17 @@
 # process with 1 and 2 threads and by 2 MPI ranks of 1 thread each, the runs interleaved (so that
 # the machine's load hits every configuration alike), REPEATS times; prints each run's pass time
 # (the report's wall_time_s: the passes, without the start-up) and whole-run time, and the medians.
-# Usage: scripts/bench-distributed.sh [build/src/flare] [repeats] [photons]
+# Usage: scripts/bench-distributed.sh [build/src/flare] [repeats] [photons] [extra render options...]
 set -euo pipefail
 flare=${1:-build/src/flare}
 repeats=${2:-3}
 photons=${3:-1048576}
+shift $(( $# < 3 ? $# : 3 ))
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
-mpirun=(mpirun --allow-run-as-root --oversubscribe)
-common=(--photons "$photons" --target-error 0 --quiet --no-diffraction)
+# Ranks waiting for rank 0 yield their core rather than spin (the machine may be shared).
+mpirun=(mpirun --allow-run-as-root --oversubscribe --mca mpi_yield_when_idle 1)
+common=(--photons "$photons" --target-error 0 --quiet --no-diffraction "$@")
 
 declare -A runs=(
   [threads1]="$flare render -o $out/x.exr --report $out/r.json --threads 1 ${common[*]}"

@@ -17,10 +17,9 @@ namespace flare::cli {
 class Processes final : public PassExchange {
 public:
     // The world: initialises MPI on the first call when the program was started by mpirun (and
-    // finalises it at exit); a program started alone never touches MPI.
+    // finalises it at exit); a program started alone never touches MPI. A build without MPI started
+    // by mpirun as several processes throws (each would do the whole work).
     static Processes& world();
-    // Whether this build can run under mpirun.
-    static bool mpiAvailable();
 
     int rank() const override { return rank_; }
     int size() const override { return size_; }

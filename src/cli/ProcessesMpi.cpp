@@ -53,8 +53,6 @@ Processes& Processes::world() {
     return world;
 }
 
-bool Processes::mpiAvailable() { return true; }
-
 std::vector<std::vector<char>> Processes::gatherAtRoot(std::vector<char> mine) {
     std::vector<std::vector<char>> all;
     if (size_ == 1) {

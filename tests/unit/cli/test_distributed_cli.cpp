@@ -96,6 +96,15 @@ TEST(DistributedCli, ACheckpointOfTwoRanksResumesWithOneToTheUninterruptedImage)
     // ... and it differs from the half render (the test can fail).
     EXPECT_FALSE(bytes(dir / "half.exr") == bytes(dir / "whole.exr"));
 }
+TEST(DistributedCli, AnInputErrorOnEveryRankEndsThemAllWithExitCode2AndNothingWritten) {
+    const auto dir = test::freshDir("flare_distributed_cli", "error");
+    const std::string exr = (dir / "x.exr").string();
+    // (timeout: a rank left waiting would hang the test rather than fail it)
+    const test::CliRun r = shell("timeout 120 " + mpirun(2) + "render " + (dir / "missing.json").string() + " -o " + exr);
+    EXPECT_EQ(r.exitCode, 2) << r.out;
+    EXPECT_NE(r.out.find("missing.json"), std::string::npos) << r.out;
+    EXPECT_FALSE(std::filesystem::exists(exr));
+}
 #else
 TEST(DistributedCli, SkippedWithoutMpi) { GTEST_SKIP() << "built without MPI (FLARE_WITH_MPI off)"; }
 #endif
