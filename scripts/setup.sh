@@ -23,6 +23,9 @@ packages=(
   libhwy-dev
   # the Python module (src/python, docs/python.md), for Debian's /usr/bin/python3
   pybind11-dev python3-dev python3-numpy
+  # multi-process renders and data sets (src/flare/distributed, docs/distributed.md); optional
+  # component: the build works without it
+  libopenmpi-dev openmpi-bin
 )
 # Only for a fuzz build: clang with its sanitizer and libFuzzer runtimes (16: the engine captures
 # structured bindings in lambdas, which clang supports from 16 on; Debian 12's default is 14).

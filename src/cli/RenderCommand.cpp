@@ -17,6 +17,7 @@
 
 #include "LayersOption.h"
 #include "Output.h"
+#include "Processes.h"
 #include "StarburstReport.h"
 #include "flare/core/Error.h"
 #include "flare/core/OutputFiles.h"
@@ -85,11 +86,18 @@ int run(const RenderCommandOptions& o) {
 
     // Every output is checked before any work (a long render must not fail at its end) and they
     // are written all or nothing, the final checkpoint with them.
+    // Under mpirun, every rank traces its share of each pass and rank 0 merges them, decides when
+    // to stop and writes everything (docs/distributed.md); the other ranks print nothing.
+    Processes& processes = Processes::world();
+    const bool writer = processes.root();
+    const bool quiet = o.quiet || !writer;
     OutputFiles outputs;
-    outputs.add(o.exr, "-o");
-    if (o.pngGiven) outputs.add(o.png, "--png");
-    if (o.reportGiven) outputs.add(o.report, "--report");
-    if (o.checkpointGiven) outputs.add(o.checkpoint, "--checkpoint");
+    if (writer) {
+        outputs.add(o.exr, "-o");
+        if (o.pngGiven) outputs.add(o.png, "--png");
+        if (o.reportGiven) outputs.add(o.report, "--report");
+        if (o.checkpointGiven) outputs.add(o.checkpoint, "--checkpoint");
+    }
     // Ctrl-C from here on ends the current pass and writes a checkpoint (before the first pass it
     // simply ends the render: there is nothing to save yet).
     gInterrupted.store(false);
@@ -120,22 +128,28 @@ int run(const RenderCommandOptions& o) {
     if (o.interiorAlbedo >= 0.0) overrides.interiorAlbedo = o.interiorAlbedo;
     const RenderOptions options = sceneRenderOptions(scene, lens, overrides);
 
-    if (!o.quiet) {
+    if (!quiet) {
         // The analysis prints nothing of its own and can take seconds: say what is happening.
         std::fprintf(stderr, "render: analysing the ghosts of %zu light(s)...", scene.lights.size());
         std::fflush(stderr);
     }
     Renderer renderer(lens, scene.lights, options);
-    if (!o.quiet) std::fprintf(stderr, " %.1f s\n", elapsed());
+    if (processes.size() > 1) renderer.setExchange(&processes);
+    if (!quiet) std::fprintf(stderr, " %.1f s\n", elapsed());
     // Without --checkpoint, one beside the image while the render runs (none when the image goes
     // to a device or a pipe: no folder to put it in).
-    const std::string checkpoint = o.checkpointGiven ? o.checkpoint
+    const std::string checkpoint = !writer            ? std::string()
+                                   : o.checkpointGiven ? o.checkpoint
                                    : outputs.writesThrough(o.exr) ? std::string()
                                    : o.exr + ".checkpoint";
     std::error_code ec;
-    if (o.checkpointGiven && std::filesystem::is_regular_file(o.checkpoint, ec)) {
+    // Every rank resumes from the checkpoint (the others only for where the passes' random
+    // numbers go on), so it must be on a file system they all see; whether it exists is rank 0's.
+    const bool resume =
+        processes.broadcastFromRoot(o.checkpointGiven && std::filesystem::is_regular_file(o.checkpoint, ec) ? 1 : 0) != 0;
+    if (resume) {
         renderer.loadCheckpoint(o.checkpoint);
-        if (!o.quiet)
+        if (!quiet)
             std::fprintf(stderr, "resumed from %s: %lld photons already traced\n", o.checkpoint.c_str(),
                          static_cast<long long>(renderer.statistics().photons));
     }
@@ -145,23 +159,32 @@ int run(const RenderCommandOptions& o) {
     auto lastCheckpoint = std::chrono::steady_clock::now();
     bool interrupted = false;
     double lastPrintS = -1.0, passS = 0.0;
+    // Rank 0 decides, for every rank, whether to run another pass (its film holds the error
+    // estimate; its clock and Ctrl-C count).
+    enum Next { kPass = 0, kStop = 1, kInterruptedBeforeFirstPass = 2 };
     for (;;) {
         // A pass that would end past --time is not started (each costs about what the last did).
-        if (stop.reached(renderer, elapsed() + passS)) break;
-        if (gInterrupted.load() && renderer.statistics().passes == 0) {
+        int next = kPass;
+        if (writer) {
+            if (stop.reached(renderer, elapsed() + passS)) next = kStop;
+            else if (gInterrupted.load() && renderer.statistics().passes == 0) next = kInterruptedBeforeFirstPass;
+        }
+        next = processes.broadcastFromRoot(next);
+        if (next == kStop) break;
+        if (next == kInterruptedBeforeFirstPass) {
             std::signal(SIGINT, previous);
-            std::fprintf(stderr, "interrupted before the first pass: nothing written\n");
+            if (writer) std::fprintf(stderr, "interrupted before the first pass: nothing written\n");
             return 130;
         }
         const double passStartS = elapsed();
         renderer.runPass();
         passS = elapsed() - passStartS;
         // The progress line (whose error estimate scans the film) at most four times a second.
-        if (!o.quiet && elapsed() - lastPrintS >= 0.25) {
+        if (!quiet && elapsed() - lastPrintS >= 0.25) {
             printProgress(renderer, stop.progress(renderer, elapsed()), o.targetError, elapsed());
             lastPrintS = elapsed();
         }
-        if (gInterrupted.load()) {
+        if (processes.broadcastFromRoot(gInterrupted.load() ? 1 : 0) != 0) {
             interrupted = true;
             break;
         }
@@ -172,6 +195,8 @@ int run(const RenderCommandOptions& o) {
         }
     }
     std::signal(SIGINT, previous);
+    // The other ranks' work is in rank 0's film now: rank 0 alone writes.
+    if (!writer) return interrupted ? 130 : 0;
     if (!o.quiet && renderer.statistics().passes > 0)
         printProgress(renderer, stop.progress(renderer, elapsed()), o.targetError, elapsed());
     if (!o.quiet) std::fprintf(stderr, "\n");
@@ -230,6 +255,15 @@ int run(const RenderCommandOptions& o) {
                      "%.2g%%\n",
                      lens.name().c_str(), o.mode.c_str(), s.passes, static_cast<long long>(s.photons),
                      static_cast<long long>(s.beams), s.seconds, 100.0 * renderer.estimatedRelativeError(kGroupFlare));
+        if (processes.size() > 1) {
+            const ExchangeCosts& c = renderer.exchangeCosts();
+            const double perPass = c.passes > 0 ? 1.0 / c.passes : 0.0;
+            std::fprintf(stderr,
+                         "  %d ranks, per pass: rank 0 traced its share in %.3g s, gathered %.3g MB from the others in "
+                         "%.3g s, merged in %.3g s\n",
+                         processes.size(), c.traceS * perPass, c.bytesReceived * perPass / 1e6, c.gatherS * perPass,
+                         c.mergeS * perPass);
+        }
         for (const LightPlan& l : renderer.lights())
             if (l.skipped) std::fprintf(stderr, "  skipped light %s: %s\n", l.name.c_str(), l.skipReason.c_str());
         if (starburst) printStarburst(*starburst);
@@ -305,7 +339,7 @@ void addRenderCommand(CLI::App& app) {
         o->reportGiven = render->count("--report") > 0;
         o->checkpointGiven = render->count("--checkpoint") > 0;
         resolveLayersOption(render, o->layers, o->scene);
-        const int code = run(*o);
+        const int code = runOnEveryRank("render", [&] { return run(*o); });
         if (code != 0) throw CLI::RuntimeError(code);
     });
 }

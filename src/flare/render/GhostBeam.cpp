@@ -204,9 +204,10 @@ GhostBeam GhostBeam::build(const BundleTracer& tracer, const PupilGrid& grid, co
     return beam;
 }
 
-GhostBeam GhostBeam::fromTriangles(std::vector<BeamTriangle> triangles, const FilmFrame& frame) {
+GhostBeam GhostBeam::fromTriangles(std::vector<BeamTriangle> triangles, const FilmFrame& frame, long tracedRays) {
     GhostBeam beam;
     beam.frame_ = frame;
+    beam.tracedRays_ = tracedRays;
     beam.triangles_ = std::move(triangles);
     beam.bucketByBand();
     return beam;

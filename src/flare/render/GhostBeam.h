@@ -91,8 +91,9 @@ public:
                            const std::function<double(const glm::dvec2& pupilMm)>& vertexFactor = {});
 
     // A beam of given triangles (pupil and pixel positions, throughput and irradiance per vertex,
-    // pupil and image areas, `small` set by the caller), for tests and tools.
-    static GhostBeam fromTriangles(std::vector<BeamTriangle> triangles, const FilmFrame& frame);
+    // pupil and image areas, `small` set by the caller), for tests and tools, and for a beam traced
+    // by another process (PassWire.h: its triangles and the rays its mesh traced).
+    static GhostBeam fromTriangles(std::vector<BeamTriangle> triangles, const FilmFrame& frame, long tracedRays = 0);
 
     bool empty() const { return triangles_.empty(); }
     const std::vector<BeamTriangle>& triangles() const { return triangles_; }

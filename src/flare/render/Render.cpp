@@ -13,6 +13,7 @@
 #include <tbb/parallel_for.h>
 
 #include "flare/render/BeamStrategy.h"
+#include "flare/render/PassExchange.h"
 #include "flare/render/PhotonBatches.h"
 #include "flare/render/RenderPlan.h"
 
@@ -235,6 +236,7 @@ std::vector<renderer::BeamJob> Renderer::drawBeamJobs() {
 }
 
 void Renderer::runPass() {
+    if (exchange_ != nullptr && exchange_->size() > 1) return runDistributedPass();
     const auto start = std::chrono::steady_clock::now();
     const int batches = static_cast<int>(batches_.size());  // 0 without photons
     const int replicate = replicateOfPass(statistics_.passes);

@@ -42,7 +42,8 @@
 //   PhotonBatches.h       a batch of guided and unguided photons;
 //   SensorHit.h           what the strategies hand to the merge;
 //   Render.cpp            the renderer: the passes, their merge into the film, the tallies;
-//   RenderCheckpoint.cpp  its checkpoints.
+//   RenderCheckpoint.cpp  its checkpoints;
+//   RenderDistributed.cpp a pass shared among processes (PassExchange.h, PassWire.h).
 #pragma once
 
 #include <array>
@@ -225,8 +226,20 @@ struct RenderStatistics {
     std::array<double, kFixedLayerCount> largestPhotonY{};
 };
 
+// What sharing the passes among ranks cost so far (Renderer::exchangeCosts, rank 0's view; all
+// zero for a render alone): the time tracing this rank's jobs, waiting for and receiving the other
+// ranks' results, and merging the whole pass, and the bytes received. docs/scaling.md models
+// renders on many nodes from them.
+struct ExchangeCosts {
+    int passes = 0;
+    double traceS = 0.0, gatherS = 0.0, mergeS = 0.0;
+    double bytesReceived = 0.0;
+};
+
 // The renderer's internals: its plan (RenderPlan.h) and the strategies' work (PhotonBatches.h,
 // BeamStrategy.h).
+class PassExchange;
+
 namespace renderer {
 struct LightState;
 struct PhotonComponent;
@@ -245,7 +258,14 @@ public:
     Renderer& operator=(const Renderer&) = delete;
 
     // Traces one pass (options.photonsPerPass() photons and the beams) in parallel and merges it.
+    // With an exchange of several ranks (setExchange), every rank must call it: each traces its
+    // share of the pass and rank 0 merges the whole pass; only rank 0's film, tallies and
+    // statistics are the render's (the others' count the passes, nothing else).
     void runPass();
+    // Shares the passes among the exchange's ranks (PassExchange.h); null, or one rank: this
+    // process traces every pass alone. The exchange must outlive the passes.
+    void setExchange(PassExchange* exchange) { exchange_ = exchange; }
+    const ExchangeCosts& exchangeCosts() const { return exchangeCosts_; }
 
     const RenderOptions& options() const { return options_; }
     const RenderStatistics& statistics() const { return statistics_; }
@@ -297,6 +317,7 @@ private:
     void setUpFilm();
     std::vector<renderer::BeamJob> drawBeamJobs();
     void merge(const std::vector<renderer::BatchResult>& batches, const std::vector<renderer::BeamJob>& beams);
+    void runDistributedPass();
     void addPassTallies(const std::vector<renderer::BeamJob>& beams, int replicate);
     std::uint64_t fingerprint() const;
     // The beams a path draws in a pass (renderer::beamCount at the path's rate).
@@ -323,6 +344,8 @@ private:
     // Per light, per slot × replicate: the beams drawn so far, where the next pass's continue the
     // replicate's sequence.
     std::vector<std::vector<std::uint64_t>> beamsDrawn_;
+    PassExchange* exchange_ = nullptr;
+    ExchangeCosts exchangeCosts_;
 };
 
 }  // namespace flare

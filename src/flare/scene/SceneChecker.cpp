@@ -52,7 +52,7 @@ std::string describe(const Node& node) {
 }
 
 void Checker::fail(int line, const std::string& path, const std::string& problem) const {
-    throw InputError(file_, line, (path.empty() ? std::string("scene") : path) + ": " + problem);
+    throw InputError(file_, line, (path.empty() ? topName_ : path) + ": " + problem);
 }
 
 void Checker::object(const Node& node, const std::string& path, const std::vector<std::string>& allowed,

@@ -25,7 +25,9 @@ std::string formatDerived(double value);
 
 class Checker {
 public:
-    explicit Checker(std::string file) : file_(std::move(file)) {}
+    // `topName`: what errors about the top-level object call it ("scene", "spec").
+    explicit Checker(std::string file, std::string topName = "scene")
+        : file_(std::move(file)), topName_(std::move(topName)) {}
 
     const std::string& file() const { return file_; }
 
@@ -54,6 +56,7 @@ public:
 
 private:
     std::string file_;
+    std::string topName_;
 };
 
 }  // namespace flare::scenefile

@@ -1,0 +1,34 @@
+// Processes.h without MPI (the build found no Open MPI): one process, rank 0 of 1.
+#include "Processes.h"
+
+#include <cstdlib>
+#include <stdexcept>
+#include <string>
+
+namespace flare::cli {
+
+Processes& Processes::world() {
+    // Started by mpirun with several processes, each would do the whole work and write the same
+    // outputs: refuse instead.
+    for (const char* variable : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE"})
+        if (const char* value = std::getenv(variable); value != nullptr && std::atoi(value) > 1)
+            throw std::runtime_error(std::string("this flare was built without MPI (FLARE_WITH_MPI off), so it cannot "
+                                                 "share the work among the ") +
+                                     value + " processes mpirun started; run it alone, or rebuild with Open MPI");
+    static Processes world;
+    return world;
+}
+
+std::vector<std::vector<char>> Processes::gatherAtRoot(std::vector<char> mine) {
+    std::vector<std::vector<char>> all;
+    all.push_back(std::move(mine));
+    return all;
+}
+
+int Processes::broadcastFromRoot(int value) { return value; }
+
+void Processes::barrier() {}
+
+void Processes::abort(int code) { std::exit(code); }
+
+}  // namespace flare::cli

@@ -1,0 +1,61 @@
+// The processes a command runs as (docs/distributed.md): under mpirun (Open MPI), MPI's world of
+// ranks; else this process alone. The engine shares a render's passes through the PassExchange
+// interface this implements; `flare dataset` shares its images. MPI is an optional component:
+// ProcessesMpi.cpp when the build found it, else Processes.cpp (one process, whatever the
+// environment says).
+#pragma once
+
+#include <cstdio>
+#include <exception>
+#include <vector>
+
+#include "flare/core/Error.h"
+#include "flare/render/PassExchange.h"
+
+namespace flare::cli {
+
+class Processes final : public PassExchange {
+public:
+    // The world: initialises MPI on the first call when the program was started by mpirun (and
+    // finalises it at exit); a program started alone never touches MPI. A build without MPI started
+    // by mpirun as several processes throws (each would do the whole work).
+    static Processes& world();
+
+    int rank() const override { return rank_; }
+    int size() const override { return size_; }
+    bool root() const { return rank_ == 0; }
+
+    std::vector<std::vector<char>> gatherAtRoot(std::vector<char> mine) override;
+    // Collective: rank 0's `value` at every rank.
+    int broadcastFromRoot(int value);
+    // Collective: returns when every rank has called it.
+    void barrier();
+    // Ends every rank with `code` (an error on one rank, which the others would wait for forever).
+    [[noreturn]] void abort(int code);
+
+private:
+    Processes() = default;
+    int rank_ = 0, size_ = 1;
+};
+
+// Runs a command's body; with several ranks, an exception on one rank prints its message with the
+// rank and ends them all (exit 2 for an input error, 1 otherwise) instead of leaving the others
+// waiting; with one rank it propagates as usual.
+template <class Body>
+auto runOnEveryRank(const char* command, Body&& body) -> decltype(body()) {
+    Processes& processes = Processes::world();
+    if (processes.size() == 1) return body();
+    try {
+        return body();
+    } catch (const InputError& e) {
+        std::fprintf(stderr, "flare: error: %s (%s, rank %d of %d)\n", e.what(), command, processes.rank(), processes.size());
+        std::fflush(stderr);
+        processes.abort(kExitInputError);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "flare: error: %s (%s, rank %d of %d)\n", e.what(), command, processes.rank(), processes.size());
+        std::fflush(stderr);
+        processes.abort(1);
+    }
+}
+
+}  // namespace flare::cli

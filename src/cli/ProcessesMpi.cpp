@@ -1,0 +1,96 @@
+// Processes.h over MPI (Open MPI): the build found it. MPI is initialised only when the program
+// was started by mpirun (its environment says so), so that a program started alone runs exactly
+// as a build without MPI does.
+#include "Processes.h"
+
+#include <algorithm>
+#include <cstdint>
+#include <cstdlib>
+
+#include <mpi.h>
+
+namespace flare::cli {
+
+namespace {
+
+// Open MPI's mpirun (and PMIx-based launchers such as srun) set these in every rank.
+bool startedByMpirun() {
+    return std::getenv("OMPI_COMM_WORLD_SIZE") != nullptr || std::getenv("PMIX_RANK") != nullptr ||
+           std::getenv("PMI_RANK") != nullptr;
+}
+
+// Messages go in pieces of at most 1 GiB (MPI counts are ints).
+constexpr std::uint64_t kPieceBytes = std::uint64_t(1) << 30;
+constexpr int kGatherTag = 31;
+
+struct MpiSession {
+    bool active = false;
+    MpiSession() {
+        if (!startedByMpirun()) return;
+        // Only the main thread calls MPI; the worker threads (TBB) never do.
+        int provided = 0;
+        MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
+        active = true;
+    }
+    ~MpiSession() {
+        int finalized = 0;
+        if (active && MPI_Finalized(&finalized) == MPI_SUCCESS && !finalized) MPI_Finalize();
+    }
+};
+
+}  // namespace
+
+Processes& Processes::world() {
+    static MpiSession session;
+    static Processes world = [] {
+        Processes p;
+        if (session.active) {
+            MPI_Comm_rank(MPI_COMM_WORLD, &p.rank_);
+            MPI_Comm_size(MPI_COMM_WORLD, &p.size_);
+        }
+        return p;
+    }();
+    return world;
+}
+
+std::vector<std::vector<char>> Processes::gatherAtRoot(std::vector<char> mine) {
+    std::vector<std::vector<char>> all;
+    if (size_ == 1) {
+        all.push_back(std::move(mine));
+        return all;
+    }
+    std::uint64_t bytes = mine.size();
+    std::vector<std::uint64_t> sizes(root() ? size_ : 0);
+    MPI_Gather(&bytes, 1, MPI_UINT64_T, sizes.data(), 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+    if (!root()) {
+        for (std::uint64_t at = 0; at < bytes; at += kPieceBytes)
+            MPI_Send(mine.data() + at, static_cast<int>(std::min(kPieceBytes, bytes - at)), MPI_BYTE, 0, kGatherTag,
+                     MPI_COMM_WORLD);
+        return all;
+    }
+    all.resize(size_);
+    all[0] = std::move(mine);
+    for (int r = 1; r < size_; ++r) {
+        all[r].resize(sizes[r]);
+        for (std::uint64_t at = 0; at < sizes[r]; at += kPieceBytes)
+            MPI_Recv(all[r].data() + at, static_cast<int>(std::min(kPieceBytes, sizes[r] - at)), MPI_BYTE, r,
+                     kGatherTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    }
+    return all;
+}
+
+int Processes::broadcastFromRoot(int value) {
+    if (size_ > 1) MPI_Bcast(&value, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    return value;
+}
+
+void Processes::barrier() {
+    if (size_ > 1) MPI_Barrier(MPI_COMM_WORLD);
+}
+
+void Processes::abort(int code) {
+    if (size_ > 1) MPI_Abort(MPI_COMM_WORLD, code);
+    std::exit(code);
+}
+
+}  // namespace flare::cli

@@ -1,0 +1,131 @@
+#include "flare/render/PassWire.h"
+
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+
+namespace flare::renderer {
+
+namespace {
+
+// Records: a tag, the job's index, then the fields in a fixed order, each a trivially copyable
+// value or a counted array of them, copied as bytes (the same build at both ends).
+constexpr std::uint8_t kBatchTag = 1, kBeamTag = 2;
+
+static_assert(std::is_trivially_copyable_v<SensorHit>);
+static_assert(std::is_trivially_copyable_v<BeamTriangle>);
+static_assert(std::is_trivially_copyable_v<RenderStatistics>);
+
+template <class T>
+void put(std::vector<char>& out, const T& value) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    const char* bytes = reinterpret_cast<const char*>(&value);
+    out.insert(out.end(), bytes, bytes + sizeof value);
+}
+
+template <class T>
+void putArray(std::vector<char>& out, const std::vector<T>& values) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    put(out, static_cast<std::uint64_t>(values.size()));
+    const char* bytes = reinterpret_cast<const char*>(values.data());
+    out.insert(out.end(), bytes, bytes + values.size() * sizeof(T));
+}
+
+class Reader {
+public:
+    explicit Reader(const std::vector<char>& message) : message_(message) {}
+    bool done() const { return at_ == message_.size(); }
+
+    template <class T>
+    T get() {
+        static_assert(std::is_trivially_copyable_v<T>);
+        T value;
+        need(sizeof value);
+        std::memcpy(&value, message_.data() + at_, sizeof value);
+        at_ += sizeof value;
+        return value;
+    }
+    template <class T>
+    std::vector<T> getArray() {
+        const auto count = get<std::uint64_t>();
+        if (count > (message_.size() - at_) / sizeof(T)) fail("an array runs past the message's end");
+        std::vector<T> values(count);
+        std::memcpy(values.data(), message_.data() + at_, count * sizeof(T));
+        at_ += count * sizeof(T);
+        return values;
+    }
+    [[noreturn]] void fail(const std::string& why) const {
+        throw std::runtime_error("distributed render: a rank's pass results are corrupt (" + why + " at byte " +
+                                 std::to_string(at_) + " of " + std::to_string(message_.size()) + ")");
+    }
+
+private:
+    void need(size_t bytes) const {
+        if (message_.size() - at_ < bytes) fail("truncated");
+    }
+    const std::vector<char>& message_;
+    size_t at_ = 0;
+};
+
+}  // namespace
+
+void writeBatch(std::int64_t index, const BatchResult& batch, std::vector<char>& out) {
+    put(out, kBatchTag);
+    put(out, index);
+    putArray(out, batch.hits);
+    putArray(out, batch.tallySums);
+    put(out, batch.layerSums);
+    put(out, batch.sourceSums);
+    put(out, batch.statistics);
+}
+
+void writeBeam(std::int64_t index, const BeamJob& job, std::vector<char>& out) {
+    put(out, kBeamTag);
+    put(out, index);
+    putArray(out, job.beam.triangles());
+    put(out, job.beam.tracedRays());
+    put(out, job.jitterPx);
+    put(out, job.scale);
+    put(out, job.seed);
+    putArray(out, job.hits);
+    put(out, job.powerY);
+    put(out, job.photons);
+}
+
+long readPassResults(const std::vector<char>& message, const FilmFrame& frame, std::vector<BatchResult>& batches,
+                     std::vector<BeamJob>& beams) {
+    Reader in(message);
+    long jobs = 0;
+    while (!in.done()) {
+        const auto tag = in.get<std::uint8_t>();
+        const auto index = in.get<std::int64_t>();
+        if (tag == kBatchTag) {
+            if (index < 0 || index >= static_cast<std::int64_t>(batches.size())) in.fail("a batch index out of range");
+            BatchResult& batch = batches[static_cast<size_t>(index)];
+            batch.hits = in.getArray<SensorHit>();
+            batch.tallySums = in.getArray<double>();
+            std::memcpy(batch.layerSums, in.get<std::array<double, kFixedLayerCount>>().data(), sizeof batch.layerSums);
+            std::memcpy(batch.sourceSums, in.get<std::array<double, kScatterSources>>().data(), sizeof batch.sourceSums);
+            batch.statistics = in.get<RenderStatistics>();
+        } else if (tag == kBeamTag) {
+            if (index < 0 || index >= static_cast<std::int64_t>(beams.size())) in.fail("a beam index out of range");
+            BeamJob& job = beams[static_cast<size_t>(index)];
+            std::vector<BeamTriangle> triangles = in.getArray<BeamTriangle>();
+            const long tracedRays = in.get<long>();
+            job.beam = GhostBeam::fromTriangles(std::move(triangles), frame, tracedRays);
+            job.jitterPx = in.get<glm::dvec2>();
+            job.scale = in.get<glm::dvec3>();
+            job.seed = in.get<std::uint64_t>();
+            job.hits = in.getArray<SensorHit>();
+            job.powerY = in.get<double>();
+            job.photons = in.get<std::int64_t>();
+        } else {
+            in.fail("an unknown record");
+        }
+        ++jobs;
+    }
+    return jobs;
+}
+
+}  // namespace flare::renderer

@@ -1,0 +1,26 @@
+// The bytes a rank sends rank 0 after tracing its share of a pass (PassExchange.h): per job its
+// index and its whole result (a batch's hits, tallies and statistics; a beam's triangles, jitter,
+// scale, seed, hits and power), copied bit for bit, so that rank 0's merge sees exactly what its
+// own trace would have produced. Both ends run the same build; a short or inconsistent message is
+// an internal error (std::runtime_error). Internal to the renderer.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "flare/render/BeamStrategy.h"
+#include "flare/render/PhotonBatches.h"
+
+namespace flare::renderer {
+
+// Appends batch `index` of the pass, or beam job `index`, to `out`.
+void writeBatch(std::int64_t index, const BatchResult& batch, std::vector<char>& out);
+void writeBeam(std::int64_t index, const BeamJob& job, std::vector<char>& out);
+
+// Reads a rank's message into the pass's `batches` and `beams` (whose light, slot, index,
+// replicate and sequence index rank 0 drew itself), each entry at its index; `frame` is the film's
+// (the beams' images). Returns how many jobs it held.
+long readPassResults(const std::vector<char>& message, const FilmFrame& frame, std::vector<BatchResult>& batches,
+                     std::vector<BeamJob>& beams);
+
+}  // namespace flare::renderer

@@ -1,0 +1,118 @@
+// A render's passes shared among ranks (PassExchange.h), with the ranks simulated by threads of
+// this process: rank 0's film, tallies and statistics are bitwise one renderer's, for 2 and 3
+// ranks, with beams, guided and unguided photons and a dusty lens (every kind of job and hit).
+// Runs in every build, with or without MPI (the CLI tests run the MPI transport itself).
+#include <barrier>
+#include <cstring>
+#include <memory>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "RenderTestUtil.h"
+#include "TestUtil.h"
+#include "flare/render/PassExchange.h"
+#include "flare/render/Render.h"
+#include "flare/scene/Scene.h"
+
+namespace flare {
+namespace {
+
+// R ranks in one process: a rank deposits its message, all meet, rank 0 takes every message, all
+// meet again (so that no rank's next message overwrites one rank 0 has not taken).
+class ThreadRanks {
+public:
+    explicit ThreadRanks(int size) : size_(size), slots_(size), meet_(size) {}
+    int size() const { return size_; }
+    std::vector<std::vector<char>> gather(int rank, std::vector<char> mine) {
+        slots_[rank] = std::move(mine);
+        meet_.arrive_and_wait();
+        std::vector<std::vector<char>> all;
+        if (rank == 0) all = std::move(slots_), slots_.assign(size_, {});
+        meet_.arrive_and_wait();
+        return all;
+    }
+
+private:
+    int size_;
+    std::vector<std::vector<char>> slots_;
+    std::barrier<> meet_;
+};
+
+class ThreadRank final : public PassExchange {
+public:
+    ThreadRank(ThreadRanks& ranks, int rank) : ranks_(ranks), rank_(rank) {}
+    int rank() const override { return rank_; }
+    int size() const override { return ranks_.size(); }
+    std::vector<std::vector<char>> gatherAtRoot(std::vector<char> mine) override { return ranks_.gather(rank_, std::move(mine)); }
+
+private:
+    ThreadRanks& ranks_;
+    int rank_;
+};
+
+Scene dustyScene() {
+    return parseSceneText(R"({"lens": "double-gauss-50mm", "f_number": 4,
+        "sensor": {"resolution": [96, 64]},
+        "lights": [{"type": "directional", "field_deg": [11, 8], "angular_diameter_deg": 0.53}],
+        "scattering": {"dust": [{"surface": 1, "coverage": 0.02}]},
+        "render": {"diffraction": false}})",
+                          "dusty.json", "");
+}
+
+bool sameBits(const std::vector<float>& a, const std::vector<float>& b) {
+    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
+
+TEST(RenderDistributed, RanksGiveBitwiseTheFilmTalliesAndStatisticsOfOneRenderer) {
+    const Scene scene = dustyScene();
+    const LensSystem lens = buildSceneLens(scene);
+    RenderOptions options = test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Guided);
+    options.perGhostLayers = true;
+    constexpr int kPasses = 3;
+    Renderer alone(lens, scene.lights, options);
+    for (int p = 0; p < kPasses; ++p) alone.runPass();
+    ASSERT_GT(alone.statistics().beams, 0);
+    ASSERT_GT(alone.statistics().unguidedPhotons, 0);
+
+    for (int size : {2, 3}) {
+        ThreadRanks ranks(size);
+        std::vector<std::unique_ptr<Renderer>> renderers;
+        std::vector<std::unique_ptr<ThreadRank>> views;
+        for (int r = 0; r < size; ++r) {
+            renderers.push_back(std::make_unique<Renderer>(lens, scene.lights, options));
+            views.push_back(std::make_unique<ThreadRank>(ranks, r));
+            renderers.back()->setExchange(views.back().get());
+        }
+        std::vector<std::thread> threads;
+        for (int r = 0; r < size; ++r)
+            threads.emplace_back([&, r] {
+                for (int p = 0; p < kPasses; ++p) renderers[r]->runPass();
+            });
+        for (std::thread& t : threads) t.join();
+
+        const Renderer& root = *renderers[0];
+        ASSERT_EQ(root.layerNames(), alone.layerNames());
+        for (size_t l = 0; l < alone.layerNames().size(); ++l)
+            EXPECT_TRUE(sameBits(root.layerXyz(static_cast<int>(l)), alone.layerXyz(static_cast<int>(l))))
+                << size << " ranks, layer " << alone.layerNames()[l];
+        ASSERT_EQ(root.tallies().size(), alone.tallies().size());
+        for (size_t t = 0; t < alone.tallies().size(); ++t) {
+            EXPECT_EQ(root.tallyPowerW(root.tallies()[t]), alone.tallyPowerW(alone.tallies()[t])) << t;
+            EXPECT_EQ(root.tallyStandardErrorW(root.tallies()[t]), alone.tallyStandardErrorW(alone.tallies()[t])) << t;
+        }
+        EXPECT_EQ(root.estimatedRelativeError(kGroupFlare), alone.estimatedRelativeError(kGroupFlare));
+        const RenderStatistics &a = alone.statistics(), &b = root.statistics();
+        EXPECT_EQ(b.photons, a.photons);
+        EXPECT_EQ(b.sensorHits, a.sensorHits);
+        EXPECT_EQ(b.beams, a.beams);
+        EXPECT_EQ(b.beamRays, a.beamRays);
+        EXPECT_EQ(b.unguidedEnteredPowerW, a.unguidedEnteredPowerW);
+        EXPECT_EQ(b.passes, a.passes);
+        for (int r = 1; r < size; ++r) EXPECT_EQ(renderers[r]->statistics().passes, kPasses);
+    }
+}
+
+}  // namespace
+}  // namespace flare
