@@ -373,6 +373,130 @@ def moving_lamp_moves_ghosts():
               "rotated position")
 
 
+def camera_matches_blender():
+    """The sensor the add-on derives against Blender's own view frame, for every sensor fit and
+    both orientations; a zoom lens follows the camera; a prime of another focal length is noted
+    and the sensor scaled to keep the camera's field of view."""
+    import flare
+    from flare_blender.export import export_frame
+    sc = street_scene()
+    cam = sc.camera
+    for fit in ("AUTO", "HORIZONTAL", "VERTICAL"):
+        for w, h in ((96, 64), (64, 96)):
+            cam.data.sensor_fit = fit
+            cam.data.sensor_height = 20.0
+            sc.render.resolution_x, sc.render.resolution_y = w, h
+            export = export_frame(flare, bpy.context, sc.flare, 1)
+            got = export.scene["sensor"]["width_mm"], export.scene["sensor"]["height_mm"]
+            corners = cam.data.view_frame(scene=sc)
+            # Corners at depth z: half widths x/z in units of the focal length.
+            xs = [abs(c.x / c.z) for c in corners]
+            ys = [abs(c.y / c.z) for c in corners]
+            want = (2 * max(xs) * cam.data.lens, 2 * max(ys) * cam.data.lens)
+            efl = flare.parse_scene(export.scene).lens().paraxial().efl_mm
+            want = (want[0] * efl / cam.data.lens, want[1] * efl / cam.data.lens)
+            # view_frame works in float32: 2⁻²³ relative, a few roundings.
+            check(all(abs(g / v - 1) < 1e-6 for g, v in zip(got, want)),
+                  f"sensor fit {fit}, {w}x{h}: the flare's sensor {got[0]:.5f} x {got[1]:.5f} mm is "
+                  f"Blender's frame × EFL/f ({want[0]:.5f} x {want[1]:.5f})")
+    sc.render.resolution_x, sc.render.resolution_y = WIDTH, HEIGHT
+    cam.data.sensor_fit = "AUTO"
+    cam.data.lens = 35.0
+    sc.flare.lens = "zoom-24-70mm"
+    export = export_frame(flare, bpy.context, sc.flare, 1)
+    check(export.scene["zoom"] == 35.0 and not any("focal length" in n for n in export.notes),
+          f"the zoom lens follows the camera's 35 mm (zoom {export.scene['zoom']})")
+    cam.data.lens = 100.0
+    export = export_frame(flare, bpy.context, sc.flare, 1)
+    check(export.scene["zoom"] == "tele" and any("outside the zoom range" in n for n in export.notes),
+          f"a camera beyond the zoom's range sets its end, with a note ({export.notes})")
+    sc.flare.lens = "double-gauss-50mm"
+    cam.data.lens = 35.0
+    export = export_frame(flare, bpy.context, sc.flare, 1)
+    check(any("focal length of" in n for n in export.notes),
+          "a prime of another focal length is noted")
+    cam.data.dof.aperture_fstop = 1.0
+    export = export_frame(flare, bpy.context, sc.flare, 1)
+    check(any("faster than" in n for n in export.notes) and export.scene["f_number"] > 2.0,
+          f"an f-stop faster than the lens renders wide open, with a note (f/{export.scene['f_number']:.3g})")
+
+
+def lamps_and_search():
+    """Spot, area and sphere lamps through the add-on's export, and the lens search."""
+    import flare
+    from flare_blender.export import export_frame
+    from flare_blender.props import search_lenses
+    sc = street_scene()
+    sc.objects["Sun"].flare_include = False
+    lamp = sc.objects["Lamp"]
+    lamp.data.shadow_soft_size = 0.3
+    export = export_frame(flare, bpy.context, sc.flare, 1)
+    disk = export.scene["lights"][0]
+    check(disk["type"] == "disk" and abs(disk["radius_mm"] - 300.0) < 1e-3,
+          f"a point lamp of radius 0.3 m is a disk of that radius facing the lens ({disk['type']})")
+    spot = bpy.data.objects.new("Spot", bpy.data.lights.new("Spot", "SPOT"))
+    spot.location = (0.0, 20.0, 1.6)
+    look(spot, (0.0, 1.0, 0.0))  # shining away from the camera
+    sc.collection.objects.link(spot)
+    export = export_frame(flare, bpy.context, sc.flare, 1)
+    check(len(export.scene["lights"]) == 1 and any("outside its cone" in n for n in export.notes),
+          "a spot aimed away is left out, with a note")
+    bpy.data.objects.remove(spot)
+    area = bpy.data.objects.new("Panel", bpy.data.lights.new("Panel", "AREA"))
+    area.data.shape, area.data.size, area.data.energy = "DISK", 0.5, 300.0
+    area.data.color = (1.0, 1.0, 1.0)
+    area.location = (0.0, 20.0, 1.6)
+    tilt = 30.0
+    look(area, (math.sin(math.radians(tilt)), -math.cos(math.radians(tilt)), 0.0))
+    sc.collection.objects.link(area)
+    export = export_frame(flare, bpy.context, sc.flare, 1)
+    panel = next(l for l in export.scene["lights"] if l["name"] == "Panel")
+    cos_t = math.cos(math.radians(tilt))
+    want_r = math.sqrt(math.pi * 0.25 ** 2 * cos_t / math.pi) * 1000.0
+    check(panel["type"] == "disk" and abs(panel["power"] / (300.0 / 4 * cos_t) - 1) < 1e-6
+          and abs(panel["radius_mm"] / want_r - 1) < 1e-6,
+          f"an area disk seen {tilt:g}° off its normal: P/4·cos θ W/sr over its foreshortened area "
+          f"({panel['power']:.6g} W/sr, radius {panel['radius_mm']:.5g} mm)")
+    area.data.shape = "RECTANGLE"
+    export = export_frame(flare, bpy.context, sc.flare, 1)
+    check(any("rendered as a disk of the same area" in n for n in export.notes),
+          "a rectangular area lamp is a disk of its area, with a note")
+    found = search_lenses(flare, "canon 50")
+    check(found and all("canon" in e["id"] and e["focal_range_mm"][0] - 0.5 <= 50 <= e["focal_range_mm"][1] + 0.5
+                        for e in found), f"searching 'canon 50' finds {len(found)} Canon lenses covering 50 mm")
+    check(any(e["id"] == "zoom-24-70mm" for e in search_lenses(flare, "24-70")),
+          "searching '24-70' finds the shipped zoom")
+
+
+def animation():
+    """Three frames with the lamp moving: a file set per frame, an image per frame, the
+    compositor reading them as a sequence, and the flare moving."""
+    import flare
+    sc = street_scene(64, 64)
+    sc.objects["Sun"].flare_include = False
+    s = sc.flare
+    s.quality, s.stop, s.passes, s.diffraction = "PREVIEW", "PHOTONS", 1, False
+    sc.frame_start, sc.frame_end = 1, 3
+    lamp = sc.objects["Lamp"]
+    for f, x in ((1, -4.0), (3, 4.0)):
+        lamp.location = (x, 25.0, 1.6)
+        lamp.keyframe_insert("location", frame=f)
+    sc.render.filepath = os.path.join(args.out, "anim", "shot_")
+    result, error = run_operator(animation=True)
+    check(result == {"FINISHED"}, f"the animation renders ({error or result})")
+    xs = []
+    for f in (1, 2, 3):
+        base = os.path.splitext(bpy.path.abspath(sc.render.frame_path(frame=f)))[0]
+        check(all(os.path.isfile(base + e) for e in (".flare.json", ".flare-layers.exr", ".flare.exr")),
+              f"frame {f}: its three files")
+        check(compositing.frame_image_name(f) in bpy.data.images, f"frame {f}: its image in Blender")
+        xs.append(centroid(flare.read_exr(base + ".flare-layers.exr")["direct"])[1][0])
+    node = sc.node_tree.nodes[compositing.IMAGE_NODE]
+    check(node.image.source == "SEQUENCE" and node.frame_duration == 3 and node.frame_offset == 0,
+          "the compositor reads the frames as a sequence")
+    check(xs[0] < xs[1] < xs[2], f"the lamp's image follows the lamp across frames ({xs})")
+
+
 # --- 3. Bad input: a clear error and no file -------------------------------------------------------
 
 def bad_input():
@@ -426,6 +550,9 @@ try:
     sc = flare_render_against_cli()
     composite_adds_the_flare(sc)
     moving_lamp_moves_ghosts()
+    camera_matches_blender()
+    lamps_and_search()
+    animation()
     bad_input()
     if args.docs_images:
         docs_images(args.docs_images)

@@ -144,11 +144,14 @@ class CameraArithmetic(unittest.TestCase):
             camera.frame_size_mm("DIAGONAL", 36, 24, 100, 100)
 
     def test_zoom_follows_within_range(self):
-        entry = {"id": "z", "zoom_positions": ["w", "t"], "focal_range_mm": [24.0, 70.0]}
+        entry = {"id": "z", "zoom_positions": ["w", "m", "t"], "zoom_focal_lengths_mm": [24.0, 50.0, 70.0],
+                 "focal_range_mm": [24.0, 70.0]}
         self.assertEqual(camera.zoom_setting(entry, 35.0), (35.0, None))
+        self.assertEqual(camera.zoom_setting(entry, 70.0), ("t", None))
         zoom, note = camera.zoom_setting(entry, 100.0)
-        self.assertEqual(zoom, 70.0)
+        self.assertEqual(zoom, "t")
         self.assertIn("outside the zoom range", note)
+        self.assertEqual(camera.zoom_setting(entry, 10.0)[0], "w")
         self.assertEqual(camera.zoom_setting({"id": "p", "focal_range_mm": [50, 50]}, 35.0), (None, None))
 
     def test_field_angles(self):

@@ -37,15 +37,22 @@ def frame_size_mm(sensor_fit, sensor_width_mm, sensor_height_mm, width_px, heigh
 
 def zoom_setting(entry, camera_focal_mm):
     """(zoom value for the scene, note or None): a zoom lens follows the camera's focal length
-    inside its range and stops at the nearer end outside it; a prime has no zoom key."""
+    inside its range; at or beyond an end it is set to that end's named position (a focal length
+    there could fall just outside the paraxial EFLs the nominal figures round); a prime has no
+    zoom key."""
     positions = entry.get("zoom_positions") if entry else None
     if not positions:
         return (None, None)
-    lo, hi = entry["focal_range_mm"]
-    if camera_focal_mm < lo or camera_focal_mm > hi:
-        f = min(max(camera_focal_mm, lo), hi)
-        return (f, f"the camera's {camera_focal_mm:g} mm lies outside the zoom range "
-                   f"{lo:g}-{hi:g} mm of '{entry['id']}': the lens is set to {f:g} mm")
+    focals = entry["zoom_focal_lengths_mm"]
+    ends = sorted(zip(focals, positions))
+    (lo, lo_name), (hi, hi_name) = ends[0], ends[-1]
+    if camera_focal_mm <= lo or camera_focal_mm >= hi:
+        name, f = (lo_name, lo) if camera_focal_mm <= lo else (hi_name, hi)
+        note = None
+        if camera_focal_mm < lo or camera_focal_mm > hi:
+            note = (f"the camera's {camera_focal_mm:g} mm lies outside the zoom range "
+                    f"{lo:g}-{hi:g} mm of '{entry['id']}': the lens is set to {name} ({f:g} mm)")
+        return (name, note)
     return (camera_focal_mm, None)
 
 

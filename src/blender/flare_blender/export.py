@@ -43,7 +43,7 @@ def _shipped_zoom_entry(flare, lens_id):
         return None
     focals = [p["focal_length_mm"] for p in positions]
     return {"id": lens_id, "zoom_positions": [p["name"] for p in positions],
-            "focal_range_mm": [min(focals), max(focals)]}
+            "zoom_focal_lengths_mm": focals, "focal_range_mm": [min(focals), max(focals)]}
 
 
 def _camera_focus_m(cam_obj):
