@@ -40,6 +40,10 @@ with zipfile.ZipFile(args.zip) as z:
     z.extractall(addon_root)
 sys.path.insert(0, addon_root)
 import flare_blender  # noqa: E402
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
+                                "docs", "examples"))
+import blender_street_scene  # noqa: E402
+from blender_street_scene import look  # noqa: E402
 from flare_blender import units, compositing  # noqa: E402
 
 flare_blender.register()
@@ -157,65 +161,14 @@ WIDTH, HEIGHT = 96, 64
 SEED, PHOTONS = 7, 100_000
 
 
-def look(obj, direction):
-    obj.rotation_euler = Vector(direction).to_track_quat("-Z", "Y").to_euler()
-
-
 def street_scene(width=WIDTH, height=HEIGHT, with_geometry=False):
+    """The example scene (docs/examples/blender_street_scene.py) at this size, set for a final
+    render of PHOTONS photons at SEED."""
     sc = clear_scene()
-    sc.frame_start, sc.frame_end, sc.frame_current = 1, 1, 1
-    sc.render.resolution_x, sc.render.resolution_y = width, height
-    sc.render.resolution_percentage = 100
-    sc.render.pixel_aspect_x = sc.render.pixel_aspect_y = 1.0
-    cd = bpy.data.cameras.new("Camera")
-    cd.lens = 50.0
-    cd.sensor_fit = "AUTO"
-    cd.sensor_width = 36.0
-    cd.dof.use_dof = True
-    cd.dof.focus_distance = 10.0
-    cd.dof.aperture_fstop = 4.0
-    cam = bpy.data.objects.new("Camera", cd)
-    cam.location = (0.0, 0.0, 1.6)
-    look(cam, (0.0, 1.0, 0.0))  # looking along +y, x to the right, z up
-    sc.collection.objects.link(cam)
-    sc.camera = cam
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-    sun.data.energy = 5.0
-    sun.data.angle = math.radians(0.53)
-    sun.data.color = (1.0, 0.95, 0.85)
-    # Seen 9° right of and 6° above the axis: its rays travel the other way.
-    look(sun, (-math.tan(math.radians(9)), -1.0, -math.tan(math.radians(6))))
-    sc.collection.objects.link(sun)
-    lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", "POINT"))
-    lamp.data.energy = 2000.0
-    lamp.data.shadow_soft_size = 0.0
-    lamp.data.color = (1.0, 0.7, 0.4)
-    lamp.location = (-2.0, 25.0, 2.4)
-    sc.collection.objects.link(lamp)
+    blender_street_scene.build(sc, width, height, with_geometry)
     s = sc.flare
-    s.lens = "double-gauss-50mm"
     s.quality, s.stop, s.photons, s.seed, s.diffraction = "FINAL", "PHOTONS", PHOTONS, SEED, True
-    if with_geometry:
-        add_geometry(sc)
     return sc
-
-
-def add_geometry(sc):
-    bpy.ops.mesh.primitive_plane_add(size=200, location=(0, 60, 0))
-    ground = bpy.context.object
-    mat = bpy.data.materials.new("ground")
-    mat.diffuse_color = (0.25, 0.25, 0.27, 1)
-    ground.data.materials.append(mat)
-    for i, (x, y, h) in enumerate(((-6, 30, 5), (7, 40, 9), (-12, 55, 14), (14, 70, 11))):
-        bpy.ops.mesh.primitive_cube_add(size=1, location=(x, y, h / 2))
-        cube = bpy.context.object
-        cube.scale = (4, 4, h)
-    pole = bpy.ops.mesh.primitive_cylinder_add(radius=0.08, depth=2.3, location=(-2.0, 25.0, 1.15))
-    sc.world = bpy.data.worlds.new("sky")
-    sc.world.use_nodes = True
-    bg = sc.world.node_tree.nodes["Background"]
-    bg.inputs[0].default_value = (0.35, 0.45, 0.7, 1)
-    bg.inputs[1].default_value = 0.4
 
 
 def run_operator(**kw):
@@ -529,7 +482,8 @@ def docs_images(folder):
     """The composited frame of the street scene (Cycles, 480 × 320) and the flare alone."""
     os.makedirs(folder, exist_ok=True)
     sc = street_scene(480, 320, with_geometry=True)
-    sc.flare.quality, sc.flare.stop, sc.flare.photons = "FINAL", "PHOTONS", 2_000_000
+    sc.flare.quality, sc.flare.stop, sc.flare.photons = "FINAL", "PHOTONS", 1_000_000
+    sc.flare.occlusion = True
     sc.render.filepath = os.path.join(args.out, "docs", "street_")
     result, error = run_operator()
     check(result == {"FINISHED"}, f"the docs frame's flare renders ({error or result})")

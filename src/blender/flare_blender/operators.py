@@ -152,6 +152,8 @@ class FLARE_OT_render(bpy.types.Operator):
         return _finish(self, context, plan)
 
     def invoke(self, context, event):
+        if bpy.app.background or context.window is None:
+            return self.execute(context)  # no event loop to run a modal operator in
         plan = self._start(context)
         if plan is None:
             return {"CANCELLED"}

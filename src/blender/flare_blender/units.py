@@ -1,7 +1,7 @@
 """Blender's light units → the engine's radiometric units, and the flare's sensor irradiance →
 Blender's pixel values. Pure Python (no bpy), so /usr/bin/python3 can test it.
 
-Blender 3.4 (Cycles and Eevee share the convention; docs/blender.md shows the measurements the
+Blender 3.4, as Cycles renders them (docs/blender.md shows the measurements the
 headless test repeats in Cycles):
 
 - sun: `energy` S is the irradiance on a plane normal to its rays, W/m² (per unit of colour);
