@@ -4,7 +4,12 @@ preview and at final quality on one frame (median of --repeats runs), and over a
 --frames frames with the street lamp moving. Run in Blender:
 
 blender -b --factory-startup --python scripts/bench-blender.py -- [--build build] [--out DIR]
-    [--width 960] [--height 640] [--frames 48] [--repeats 3] [--samples 64] [--final-frames N]
+    [--width 960] [--height 640] [--frames 48] [--repeats 3] [--samples 64]
+    [--cycles-repeats N] [--final-repeats N] [--preview-frames N] [--final-frames N]
+
+The animation's frames are all converted and checked before any is rendered: "export" times that
+for --frames frames alone; --preview-frames and --final-frames (default --frames; 0 skips) are the
+frames of the animations rendered at each quality.
 
 Prints one line per measurement and a JSON summary on the last line.
 """
@@ -25,9 +30,11 @@ ap.add_argument("--out", default="/tmp/flare-bench-blender")
 ap.add_argument("--width", type=int, default=960)
 ap.add_argument("--height", type=int, default=640)
 ap.add_argument("--frames", type=int, default=48)
-ap.add_argument("--final-frames", type=int, default=None,
-                help="frames of the final-quality animation (default: --frames)")
+ap.add_argument("--preview-frames", type=int, default=None)
+ap.add_argument("--final-frames", type=int, default=None)
 ap.add_argument("--repeats", type=int, default=3)
+ap.add_argument("--cycles-repeats", type=int, default=None)
+ap.add_argument("--final-repeats", type=int, default=None)
 ap.add_argument("--samples", type=int, default=64, help="Cycles samples of the reference frame")
 args = ap.parse_args(argv)
 
@@ -36,6 +43,7 @@ sys.path.insert(0, os.path.join(SOURCE_DIR, "src", "blender"))
 sys.path.insert(0, os.path.join(SOURCE_DIR, "docs", "examples"))
 import flare_blender  # noqa: E402
 import blender_street_scene  # noqa: E402
+from flare_blender import operators  # noqa: E402
 
 flare_blender.register()
 sc = bpy.context.scene
@@ -83,21 +91,24 @@ def flare(animation, folder):
 s = sc.flare
 s.quality, s.stop, s.passes = "PREVIEW", "PHOTONS", 1
 flare(False, "warm-up")()  # loads the engine and the lens library once, as a session would
-timed(f"cycles frame ({args.samples} samples)", cycles_frame, args.repeats)
+timed(f"cycles frame ({args.samples} samples)", cycles_frame, args.cycles_repeats or args.repeats)
 s.quality, s.stop, s.passes = "PREVIEW", "PHOTONS", 2
 timed("flare preview, one frame", flare(False, "preview"), args.repeats)
 s.quality, s.stop, s.target_error, s.photons = "FINAL", "ERROR", 0.02, 100_000_000
-timed("flare final (2 % target error), one frame", flare(False, "final"), args.repeats)
+timed("flare final (2 % target error), one frame", flare(False, "final"), args.final_repeats or args.repeats)
 
 lamp = sc.objects["Lamp"]
 sc.frame_start, sc.frame_end = 1, args.frames
 for f, x in ((1, -6.0), (args.frames, 6.0)):
     lamp.location = (x, 25.0, 2.4)
     lamp.keyframe_insert("location", frame=f)
-s.quality, s.stop, s.passes = "PREVIEW", "PHOTONS", 2
-timed(f"flare preview, {args.frames}-frame animation", flare(True, "anim-preview"))
-final_frames = args.final_frames or args.frames
-sc.frame_end = final_frames
-s.quality, s.stop, s.target_error = "FINAL", "ERROR", 0.02
-timed(f"flare final (2 % target error), {final_frames}-frame animation", flare(True, "anim-final"))
+timed(f"export and check of {args.frames} frames", lambda: operators._prepare(bpy.context, True))
+for quality, count in (("PREVIEW", args.preview_frames), ("FINAL", args.final_frames)):
+    count = args.frames if count is None else count
+    if count == 0:
+        continue
+    sc.frame_end = count
+    s.quality = quality
+    label = "preview" if quality == "PREVIEW" else "final (2 % target error)"
+    timed(f"flare {label}, {count}-frame animation", flare(True, f"anim-{quality.lower()}"))
 print("bench-json: " + json.dumps(results), flush=True)

@@ -271,7 +271,7 @@ def lamp_ghosts(sc, lamp_xz, name):
     sc.objects["Sun"].flare_include = False
     sc.objects["Lamp"].location = (lamp_xz[0], 25.0, lamp_xz[1])
     s = sc.flare
-    s.quality, s.stop, s.passes, s.diffraction = "PREVIEW", "PHOTONS", 2, False
+    s.quality, s.stop, s.passes, s.diffraction, s.ghost_layers = "PREVIEW", "PHOTONS", 2, False, True
     sc.render.filepath = os.path.join(args.out, name, "shot_")
     result, error = run_operator()
     check(result == {"FINISHED"}, f"the preview renders ({error or result})")

@@ -60,7 +60,10 @@ def run_engine(flare, export, settings, progress=None):
             kwargs["time"] = settings.time_s
         else:
             kwargs["passes"] = settings.passes
-        return dict(flare.preview(scene, **kwargs))
+        images = dict(flare.preview(scene, **kwargs))
+        if not settings.ghost_layers:  # the per-ghost layers only when asked: ~50 MB a frame
+            images = {k: v for k, v in images.items() if not k.startswith("ghost_")}
+        return images
     kwargs = {"seed": settings.seed, "threads": settings.threads,
               "layers": True if settings.ghost_layers else False}
     if settings.stop == "TIME":

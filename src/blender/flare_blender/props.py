@@ -135,7 +135,8 @@ class FlareSettings(bpy.types.PropertyGroup):
         description="Dim lamps hidden by scene geometry (rays from the camera to the lamp)")
     ghost_layers: bpy.props.BoolProperty(
         name="Per-ghost layers", default=False,
-        description="Final quality: a layer per ghost in the layers EXR (the preview always has them)")
+        description="A layer per ghost in the layers EXR (about 50 MB a frame at 480 x 320 for the "
+                    "double Gauss's 50 ghosts)")
 
 
 classes = (FlarePreferences, FlareSettings)

@@ -32,8 +32,7 @@ class FLARE_PT_settings(bpy.types.Panel):
         row = col.row()
         row.prop(s, "diffraction")
         row.prop(s, "occlusion")
-        if s.quality == "FINAL":
-            col.prop(s, "ghost_layers")
+        col.prop(s, "ghost_layers")
         row = layout.row()
         row.operator("flare.render", text="Flare: Frame", icon="LIGHT_SUN").animation = False
         row.operator("flare.render", text="Flare: Animation", icon="RENDER_ANIMATION").animation = True
