@@ -19,6 +19,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
 import traceback
 import zipfile
 
@@ -450,6 +451,27 @@ def animation():
     check(xs[0] < xs[1] < xs[2], f"the lamp's image follows the lamp across frames ({xs})")
 
 
+def cancelling():
+    """What Esc does in the UI: the plan's cancel flag, set while a final render runs in its
+    thread, stops it between passes; the frame under way is not written."""
+    import threading
+    from flare_blender import operators
+    sc = street_scene()
+    sc.flare.photons = 2_000_000_000  # far more than a test can wait for: only the cancel ends it
+    out = tempfile.mkdtemp(prefix="cancel-", dir=args.out)
+    sc.render.filepath = os.path.join(out, "shot_")
+    plan = operators._prepare(bpy.context, False)
+    thread = threading.Thread(target=plan.run)
+    thread.start()
+    t0 = time.monotonic()
+    while plan.fraction == 0.0 and not plan.finished and time.monotonic() - t0 < 300:
+        time.sleep(0.05)
+    plan.cancel = True
+    thread.join()
+    check(plan.error == "cancelled" and plan.done == [] and os.listdir(out) == [],
+          f"a cancelled render stops ({plan.error}) and writes nothing ({os.listdir(out)})")
+
+
 # --- 3. Bad input: a clear error and no file -------------------------------------------------------
 
 def bad_input():
@@ -507,6 +529,7 @@ try:
     camera_matches_blender()
     lamps_and_search()
     animation()
+    cancelling()
     bad_input()
     if args.docs_images:
         docs_images(args.docs_images)
