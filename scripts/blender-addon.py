@@ -2,7 +2,7 @@
 """Builds the Blender add-on's installable zip (Edit > Preferences > Add-ons > Install...):
 src/blender/flare_blender/ and, unless --no-engine, the engine's Python module from the build
 (BUILD/python/flare.cpython-*.so and flare.pyi, into flare_blender/engine/) with the lens library
-(lenses/library, into flare_blender/lenses/library), so that the add-on runs on a machine with the
+and the glass catalogues (lenses/library and lenses/glass, into flare_blender/lenses/), so that the add-on runs on a machine with the
 same Debian libraries without a build tree.
 
 Usage: scripts/blender-addon.py [--build build] [--output build/flare_blender.zip] [--no-engine]
@@ -41,11 +41,14 @@ def main():
         stubs = os.path.join(args.build, "python", "flare.pyi")
         if os.path.exists(stubs):
             files.append((stubs, f"{PACKAGE}/engine/flare.pyi"))
-        library = os.path.join(SOURCE_DIR, "lenses", "library")
-        for root, _, names in os.walk(library):
-            for name in sorted(names):
-                path = os.path.join(root, name)
-                files.append((path, f"{PACKAGE}/lenses/library/{os.path.relpath(path, library)}"))
+        # The library and, beside it where the engine looks for them, the makers' glass catalogues
+        # (src/flare/optics/AgfCatalog.h).
+        for folder in ("library", "glass"):
+            top = os.path.join(SOURCE_DIR, "lenses", folder)
+            for root, _, names in os.walk(top):
+                for name in sorted(names):
+                    path = os.path.join(root, name)
+                    files.append((path, f"{PACKAGE}/lenses/{folder}/{os.path.relpath(path, top)}"))
     # All or nothing: the zip is written beside its target and moved into place when complete.
     folder = os.path.dirname(os.path.abspath(output))
     os.makedirs(folder, exist_ok=True)
