@@ -143,6 +143,15 @@ class CameraArithmetic(unittest.TestCase):
         with self.assertRaises(FlareInputError):
             camera.frame_size_mm("DIAGONAL", 36, 24, 100, 100)
 
+    def test_shift_window(self):
+        # 96 x 64, Auto: shift in units of the longer side, 96 px; +x right, +y up.
+        self.assertEqual(camera.shift_window("AUTO", 96, 64, 0.125, 0.0), (120, 64, 24, 0, None))
+        self.assertEqual(camera.shift_window("AUTO", 96, 64, -0.125, 0.0), (120, 64, 0, 0, None))
+        self.assertEqual(camera.shift_window("AUTO", 96, 64, 0.0, 0.125), (96, 88, 0, 0, None))
+        self.assertEqual(camera.shift_window("AUTO", 96, 64, 0.0, -0.125), (96, 88, 0, 24, None))
+        self.assertEqual(camera.shift_window("VERTICAL", 96, 64, 0.25, 0.0)[:4], (128, 64, 32, 0))
+        self.assertIn("rounded", camera.shift_window("AUTO", 96, 64, 0.1, 0.0)[4])
+
     def test_zoom_follows_within_range(self):
         entry = {"id": "z", "zoom_positions": ["w", "m", "t"], "zoom_focal_lengths_mm": [24.0, 50.0, 70.0],
                  "focal_range_mm": [24.0, 70.0]}

@@ -89,3 +89,24 @@ def field_deg(direction_seen):
     if abs(fx) > 89.9 or abs(fy) > 89.9:
         return None
     return [fx, fy]
+
+
+def shift_window(sensor_fit, width_px, height_px, shift_x, shift_y):
+    """Blender's lens shift as a window in a larger frame centred on the lens's axis (the engine's
+    frame always is): (big width, big height, first column, first row, note or None). Blender
+    shifts by shift × the fitted side in pixels (Auto: the longer side); the shift is rounded to
+    whole pixels so that the window's pixels are the big frame's."""
+    if sensor_fit == "AUTO":
+        fit_px = max(width_px, height_px)
+    elif sensor_fit == "HORIZONTAL":
+        fit_px = width_px
+    else:
+        fit_px = height_px
+    dx, dy = shift_x * fit_px, shift_y * fit_px   # pixels; x right, y up
+    ix, iy = round(dx), round(dy)
+    note = None
+    if abs(dx - ix) > 0.01 or abs(dy - iy) > 0.01:
+        note = (f"the lens shift ({dx:.2f}, {dy:.2f}) px is rounded to whole pixels "
+                f"({ix}, {iy}) for the flare")
+    big_w, big_h = width_px + 2 * abs(ix), height_px + 2 * abs(iy)
+    return big_w, big_h, abs(ix) + ix, abs(iy) - iy, note

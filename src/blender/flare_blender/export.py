@@ -26,6 +26,7 @@ class FrameExport:
         self.to_blender_scale = to_blender_scale
         self.notes = notes               # warnings for the report area
         self.light_count = light_count
+        self.crop = None                 # (first column, first row, width, height) of a shift
 
 
 def library_entry(flare, lens_id):
@@ -258,9 +259,6 @@ def export_frame(flare, context, settings, frame):
     if cam_obj.data.type != "PERSP":
         raise FlareInputError(f"camera '{cam_obj.name}' is {cam_obj.data.type.lower()}: the "
                               "flare needs a perspective camera")
-    if cam_obj.data.shift_x != 0.0 or cam_obj.data.shift_y != 0.0:
-        raise FlareInputError(f"camera '{cam_obj.name}' has a lens shift; the flare engine's "
-                              "frame is centred on the lens's axis (set Shift X and Y to 0)")
     notes = []
     r = scene.render
     width_px = r.resolution_x * r.resolution_percentage // 100
@@ -270,6 +268,20 @@ def export_frame(flare, context, settings, frame):
                                       r.pixel_aspect_x, r.pixel_aspect_y)
     lens_keys, efl_mm, ep_z_mm, working_f = lens_setup(flare, settings, cam_obj, notes)
     sensor_mm = cam_math.engine_sensor_mm(frame_mm, cam_obj.data.lens, efl_mm)
+    # A lens shift: the engine renders a frame centred on the axis that holds the shifted one,
+    # and the add-on keeps the window Blender sees.
+    crop = None
+    if cam_obj.data.shift_x != 0.0 or cam_obj.data.shift_y != 0.0:
+        big_w, big_h, x0, y0, note = cam_math.shift_window(
+            cam_obj.data.sensor_fit, width_px, height_px, cam_obj.data.shift_x, cam_obj.data.shift_y)
+        if note:
+            notes.append(note)
+        if max(big_w, big_h) > 16384:
+            raise FlareInputError(f"camera '{cam_obj.name}': the lens shift needs a {big_w} x {big_h} "
+                                  "frame centred on the axis, beyond the engine's 16384 pixels")
+        crop = (x0, y0, width_px, height_px)
+        sensor_mm = (sensor_mm[0] * big_w / width_px, sensor_mm[1] * big_h / height_px)
+        width_px, height_px = big_w, big_h
     depsgraph = context.evaluated_depsgraph_get()
     lights = light_dicts(scene, depsgraph, cam_obj, ep_z_mm, settings.occlusion, notes)
     scene_dict = None
@@ -287,4 +299,6 @@ def export_frame(flare, context, settings, frame):
     else:
         notes.append(f"frame {frame}: no lamp shines into the lens; the flare is black")
     scale = units.flare_to_blender_scale(working_f)
-    return FrameExport(frame, scene_dict, scale, notes, len(lights))
+    export = FrameExport(frame, scene_dict, scale, notes, len(lights))
+    export.crop = crop
+    return export

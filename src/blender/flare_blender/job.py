@@ -93,6 +93,12 @@ def write_outputs(flare, export, images, paths, width_px, height_px):
     """Writes the frame's files, each all or nothing (flare.write_exr; the JSON through a
     temporary name); returns the Blender-units image."""
     report = None
+    if images is not None and export.crop is not None:
+        # A shifted camera: the window Blender sees, of every layer (per-ghost footprints whole).
+        x0, y0, w, h = export.crop
+        images = {k: (v if k == "__report__" else
+                      np.ascontiguousarray(np.asarray(v, dtype=np.float32)[y0:y0 + h, x0:x0 + w]))
+                  for k, v in images.items()}
     if images is None:
         images = {"": np.zeros((height_px, width_px, 3), np.float32)}
     else:
@@ -100,6 +106,8 @@ def write_outputs(flare, export, images, paths, width_px, height_px):
     main = np.asarray(images[""], dtype=np.float32)
     blender_image = (main * np.float32(export.to_blender_scale)).astype(np.float32)
     metadata = {"flare_frame": str(export.frame),
+                "flare_crop": "none" if export.crop is None else
+                "x {} y {} width {} height {} of the scene's frame".format(*export.crop),
                 "flare_units": "sensor irradiance, W/m2 (linear Rec.709)",
                 "flare_to_blender_scale": repr(export.to_blender_scale)}
     # All float: a faint ghost's values lie below half precision's normal range.
