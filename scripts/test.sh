@@ -4,7 +4,7 @@
 # theirs (flare*) in the temporary directory.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/setup.sh
+scripts/setup.sh --tests
 scripts/build.sh
 tmp="${TMPDIR:-/tmp}"
 before=$(ls -A "$tmp" | sort)

@@ -9,11 +9,11 @@
 
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
-#include <kiss_fftnd.h>
 #include <tbb/parallel_for.h>
 
 #include "flare/wave/DiffractionPsf.h"
 #include "flare/wave/DustGlow.h"
+#include "flare/wave/KissFft.h"
 
 namespace flare {
 
@@ -30,20 +30,9 @@ double smoothstep(double t) {
 // Complex 2-D transforms (kiss_fftnd): Debian's KissFFT 131.1.0 cannot allocate its real
 // N-dimensional transform (kiss_fftndr_alloc returns null), and the images here are small.
 struct FftPlan {
-    kiss_fftnd_cfg forward = nullptr, inverse = nullptr;
     int rows = 0, cols = 0;
-    FftPlan(int r, int c) : rows(r), cols(c) {
-        const int dims[2] = {r, c};
-        forward = kiss_fftnd_alloc(dims, 2, 0, nullptr, nullptr);
-        inverse = kiss_fftnd_alloc(dims, 2, 1, nullptr, nullptr);
-        if (!forward || !inverse) throw std::runtime_error("starburst: cannot allocate a KissFFT plan");
-    }
-    ~FftPlan() {
-        kiss_fft_free(forward);
-        kiss_fft_free(inverse);
-    }
-    FftPlan(const FftPlan&) = delete;
-    FftPlan& operator=(const FftPlan&) = delete;
+    KissFft2d forward, inverse;
+    FftPlan(int r, int c) : rows(r), cols(c), forward(r, c, false), inverse(r, c, true) {}
 };
 
 // Linear convolution of a (2a+1)² image with a (2b+1)² kernel, both zero-padded into the plan's
@@ -58,12 +47,12 @@ std::vector<float> convolve(const FftPlan& plan, const std::vector<float>& image
     for (int y = 0; y < kernelSide; ++y)
         for (int x = 0; x < kernelSide; ++x)
             b[static_cast<size_t>(y) * plan.cols + x].r = kernel[static_cast<size_t>(y) * kernelSide + x];
-    kiss_fftnd(plan.forward, a.data(), fa.data());
-    kiss_fftnd(plan.forward, b.data(), fb.data());
+    plan.forward(a.data(), fa.data());
+    plan.forward(b.data(), fb.data());
     const float scale = 1.0f / static_cast<float>(size);
     for (size_t i = 0; i < size; ++i)
         fa[i] = {(fa[i].r * fb[i].r - fa[i].i * fb[i].i) * scale, (fa[i].r * fb[i].i + fa[i].i * fb[i].r) * scale};
-    kiss_fftnd(plan.inverse, fa.data(), a.data());
+    plan.inverse(fa.data(), a.data());
     const int side = imageSide + kernelSide - 1;
     std::vector<float> out(static_cast<size_t>(side) * side);
     for (int y = 0; y < side; ++y)
@@ -287,7 +276,7 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
         // Near: the tapered window convolved with the crop.
         const int kernelSide = 2 * window + 1;
         const int outSide = kernelSide + cropSide - 1;
-        const FftPlan plan(kiss_fft_next_fast_size(outSide), kiss_fft_next_fast_size(outSide));
+        const FftPlan plan(KissFft2d::nextFastSize(outSide), KissFft2d::nextFastSize(outSide));
         std::vector<double> inFrameRows(height, 0.0);
         for (int c = 0; c < 3; ++c) {
             std::vector<float> kernel(static_cast<size_t>(kernelSide) * kernelSide);
