@@ -23,6 +23,8 @@ packages=(
   libhwy-dev
   # the Python module (src/python, docs/python.md), for Debian's /usr/bin/python3
   pybind11-dev python3-dev python3-numpy
+  # plate colour spaces and display transforms of `flare composite` (src/cli/Composite*)
+  libopencolorio-dev
 )
 # Only for a fuzz build: clang with its sanitizer and libFuzzer runtimes (16: the engine captures
 # structured bindings in lambdas, which clang supports from 16 on; Debian 12's default is 14).

@@ -6,6 +6,7 @@
 #include <CLI/CLI.hpp>
 
 #include "CompareCommand.h"
+#include "CompositeCommand.h"
 #include "GhostCommands.h"
 #include "GlassCatalogOption.h"
 #include "LensCommands.h"
@@ -22,6 +23,7 @@ int main(int argc, char** argv) {
     flare::cli::addPreviewCommand(app);
     flare::cli::addRenderCommand(app);
     flare::cli::addCompareCommand(app);
+    flare::cli::addCompositeCommand(app);
     flare::cli::addVolumeCommands(app);
     flare::cli::addGlassCatalogOptions(app);
     try {
