@@ -8,7 +8,8 @@ thousands and the sun about 10^5.
                       facades and a dark sky
     sunlit.exr        1920 x 1080: a low sun in a blue sky over a bright field, with a glint
 
-Usage: scripts/make-plates.py OUT_DIR [--small]   (--small: 480 x 270, for quick tests)
+Usage: scripts/make-plates.py OUT_DIR [--width W]   (default 1920; the height is 9/16 of it: the
+       docs' pictures use 960, quick tests 480)
 
 The EXRs are written uncompressed, single part, 32-bit float R, G, B, with the chromaticities of
 linear Rec.709 (the writer below follows the OpenEXR file layout; numpy only).
@@ -179,8 +180,8 @@ def main():
         print(__doc__)
         return 2
     out = sys.argv[1]
-    small = "--small" in sys.argv[2:]
-    w, h = (480, 270) if small else (1920, 1080)
+    w = int(sys.argv[sys.argv.index("--width") + 1]) if "--width" in sys.argv[2:] else 1920
+    h = w * 9 // 16
     os.makedirs(out, exist_ok=True)
     write_exr(os.path.join(out, "night-street.exr"), night_street(w, h))
     write_exr(os.path.join(out, "sunlit.exr"), sunlit(w, h))
