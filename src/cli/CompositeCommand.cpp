@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 
 #include "flare/core/Error.h"
@@ -22,6 +23,7 @@
 #include "flare/scene/Scene.h"
 #include "flare/scene/SceneJson.h"
 #include "flare/scene/ScenePreview.h"
+#include "flare/scene/SceneStarburst.h"
 
 namespace flare::cli {
 
@@ -34,6 +36,7 @@ struct CompositeOptions {
     std::optional<double> focusMm, fNumber, sensorWidthMm;
     std::string exr, png, lightsJson, extraLights;
     std::string colourSpace;
+    std::string frames;  // "FIRST-LAST": a sequence
     std::optional<double> threshold;
     int maxLights = 64;
     int cellPx = 16;
@@ -91,7 +94,45 @@ ScenePreview renderFlare(const Scene& scene, const LensSystem& lens, const Compo
     return preview;
 }
 
-void run(CompositeOptions& o) {
+// A frame's lights as the next frame matches them: where each is on the plate, and its spec.
+struct FrameLight {
+    glm::dvec2 centroidPx;
+    LightSpec spec;
+};
+
+// Orders this frame's lights as the previous frame's: each previous light takes the nearest
+// unmatched light within `radiusPx` (and its name), at its own index, so that its beams draw the
+// same random sequences (the render keys them by the light's index) and a static or slowly moving
+// source does not flicker; the unmatched follow, strongest first.
+void matchPrevious(std::vector<PlateLight>& lights, const std::vector<FrameLight>& previous, double radiusPx) {
+    std::vector<PlateLight> ordered;
+    std::vector<bool> taken(lights.size(), false);
+    for (const FrameLight& p : previous) {
+        int best = -1;
+        double bestPx = radiusPx;
+        for (size_t i = 0; i < lights.size(); ++i) {
+            const double d = glm::length(lights[i].cell.centroidPx - p.centroidPx);
+            if (!taken[i] && d <= bestPx) {
+                best = static_cast<int>(i);
+                bestPx = d;
+            }
+        }
+        if (best < 0) continue;
+        taken[static_cast<size_t>(best)] = true;
+        ordered.push_back(lights[static_cast<size_t>(best)]);
+        ordered.back().spec.name = p.spec.name;
+    }
+    for (size_t i = 0; i < lights.size(); ++i)
+        if (!taken[i]) ordered.push_back(lights[i]);
+    // Names stay unique: a new light whose name a matched one took gets a suffix.
+    std::set<std::string> names;
+    for (PlateLight& l : ordered) {
+        while (!names.insert(l.spec.name).second) l.spec.name += "'";
+    }
+    lights = std::move(ordered);
+}
+
+std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<FrameLight>* previous) {
     const Clock::time_point start = Clock::now();
     if (o.plate.empty()) throw InputError("flare composite", 0, "no plate given (flare composite PLATE.exr --lens LENS -o OUT.exr)");
     OutputFiles outputs;
@@ -132,7 +173,10 @@ void run(CompositeOptions& o) {
         sources = findPlateSources(plate, sources.threshold, cellPx);
     }
     sources.thresholdRule = findPlateSources(plate, o.threshold, 1).thresholdRule;
-    const PlateLightSet found = plateLights(lens, map, sources, o.cullShare);
+    PlateLightSet found = plateLights(lens, map, sources, o.cullShare);
+    if (previous) matchPrevious(found.lights, *previous, cellPx);
+    std::vector<FrameLight> frameLights;
+    for (const PlateLight& l : found.lights) frameLights.push_back({l.cell.centroidPx, l.spec});
     for (const PlateLight& l : found.lights) scene.lights.push_back(l.spec);
     for (LightSpec l : extra) {
         for (const LightSpec& other : scene.lights)
@@ -160,6 +204,9 @@ void run(CompositeOptions& o) {
             std::fprintf(stderr, "composite: rendering the flare of %zu light(s)...\n", plateScene.lights.size());
             std::fflush(stderr);
         }
+        // The preview's own starburst diffracts the lights' modelled direct image; the plate's
+        // sources are diffracted below instead.
+        plateScene.render.diffraction = false;
         plateFlare = renderFlare(plateScene, lens, o, o.layers.given, start);
     }
     if (!extra.empty()) {
@@ -180,9 +227,21 @@ void run(CompositeOptions& o) {
     std::vector<float> ghost(n, 0.0f), starburstDelta(n, 0.0f), higher, extraLayer;
     if (!found.lights.empty()) {
         addInto(ghost, plateFlare.ghosts);
-        if (plateFlare.starburst) {
-            addInto(starburstDelta, plateFlare.starburst->xyz);
-            addInto(starburstDelta, plateFlare.direct, -1.0f);
+        if (scene.render.diffraction) {
+            // The starburst of the plate's own source pixels (each diffracted by the PSF of the
+            // light nearest it), less those pixels: the light the iris moves from the sources' cores
+            // into their spikes. The plate holds the sources, so the composite stays non-negative.
+            std::vector<float> sourceXyz(n, 0.0f);
+            for (size_t p = 0; p < n / 3; ++p) {
+                const glm::dvec3 xyz = plate.space.toXyz * plate.pixel(static_cast<int>(p % w), static_cast<int>(p / w));
+                if (!(xyz.y > sources.threshold)) continue;
+                for (int k = 0; k < 3; ++k) sourceXyz[3 * p + k] = static_cast<float>(xyz[k]);
+            }
+            Scene plateScene = scene;
+            plateScene.lights.resize(found.lights.size());
+            const StarburstImage starburst = sceneStarburst(plateScene, lens, sourceXyz, w, h);
+            addInto(starburstDelta, starburst.xyz);
+            addInto(starburstDelta, sourceXyz, -1.0f);
         }
         if (!plateFlare.higher.empty()) higher = plateFlare.higher;
     }
@@ -253,6 +312,50 @@ void run(CompositeOptions& o) {
     }
     std::printf("wrote %s%s%s%s%s\n", o.exr.c_str(), o.pngGiven ? " and " : "", o.pngGiven ? o.png.c_str() : "",
                 o.lightsJson.empty() ? "" : " and ", o.lightsJson.c_str());
+    return frameLights;
+}
+
+// `name` with its run of '#' replaced by the frame number, zero-padded to the run's length.
+std::string frameName(const std::string& name, int frame) {
+    const size_t first = name.find('#');
+    if (first == std::string::npos) return name;
+    const size_t last = name.find_first_not_of('#', first);
+    const size_t width = (last == std::string::npos ? name.size() : last) - first;
+    std::string number = std::to_string(frame);
+    if (number.size() < width) number.insert(0, width - number.size(), '0');
+    return name.substr(0, first) + number + name.substr(first + width);
+}
+
+void run(CompositeOptions& o) {
+    if (o.frames.empty()) {
+        runFrame(o, nullptr);
+        return;
+    }
+    // A sequence: every named output must carry the frame number, the frames run in order, and
+    // each frame's sources are matched to the previous frame's (matchPrevious).
+    const size_t dash = o.frames.find('-', 1);
+    int first = 0, last = 0;
+    try {
+        size_t used = 0;
+        first = std::stoi(o.frames, &used);
+        last = dash == std::string::npos ? first : std::stoi(o.frames.substr(dash + 1), &used);
+    } catch (const std::exception&) {
+        throw InputError("--frames", 0, "must be a frame range FIRST-LAST (e.g. 1-48), got '" + o.frames + "'");
+    }
+    if (last < first) throw InputError("--frames", 0, "the range " + o.frames + " is empty (LAST < FIRST)");
+    for (const auto& [value, option] : {std::pair{o.plate, "PLATE"}, std::pair{o.exr, "-o"}, std::pair{o.png, "--png"},
+                                        std::pair{o.lightsJson, "--lights-json"}})
+        if (!value.empty() && value.find('#') == std::string::npos)
+            throw InputError(option, 0, std::string("with --frames, ") + option + " must hold the frame number as a run of '#' (plate.####.exr), got '" + value + "'");
+    std::vector<FrameLight> previous;
+    for (int frame = first; frame <= last; ++frame) {
+        CompositeOptions f = o;
+        f.plate = frameName(o.plate, frame);
+        f.exr = frameName(o.exr, frame);
+        f.png = frameName(o.png, frame);
+        f.lightsJson = frameName(o.lightsJson, frame);
+        previous = runFrame(f, frame == first ? nullptr : &previous);
+    }
 }
 
 }  // namespace
@@ -300,6 +403,9 @@ void addCompositeCommand(CLI::App& app) {
                   "beams per pass and light (default 64: many lights share the frame, and each light's error "
                   "matters in proportion to its power)")
         ->check(CLI::Range(8, 32768));
+    c->add_option("--frames", o->frames,
+                  "a sequence FIRST-LAST: PLATE, -o (and --png, --lights-json) hold the frame number as '####'; "
+                  "sources are matched frame to frame so that their flare does not flicker");
     c->add_option("--seed", o->seed, "random seed of the beams (default 1)")->check(CLI::Range(0LL, (1LL << 62)));
     c->add_flag("--quiet", o->quiet, "no statistics on stderr");
     c->callback([o, c] {

@@ -3,6 +3,7 @@
 // render its flare, and bad plates are refused with nothing written.
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <cstdlib>
 #include <filesystem>
@@ -273,6 +274,51 @@ TEST(CompositeCli, ColourSpacesFromAnOcioConfig) {
     EXPECT_EQ(u.exitCode, 2) << u.out;
     EXPECT_NE(u.out.find("did you mean 'studio_cg'"), std::string::npos) << u.out;
     ::unsetenv("OCIO");
+}
+
+// A sequence (--frames, plate.####.exr): on a static plate the frame-to-frame change is within
+// the render's estimated error (it is none: the same sources keep their random sequences); and
+// when two sources swap which is brighter, each keeps its index and name (matched by position, not
+// re-sorted by power, which would hand it the other's sequences).
+TEST(CompositeCli, SequencesMatchSourcesFromFrameToFrame) {
+    const glm::dvec3 a(600.0), b(300.0);
+    for (int frame = 1; frame <= 3; ++frame) {
+        char name[32];
+        std::snprintf(name, sizeof name, "seq.%04d.exr", frame);
+        // Frames 1 and 2 static; in frame 3 b grows brighter than a and moves one pixel.
+        if (frame < 3) writePlate(name, {{60, 40, a}, {180, 110, b}});
+        else writePlate(name, {{60, 40, a}, {181, 110, 3.0 * a}});
+    }
+    const std::string plates = (dir() / "seq.####.exr").string(), outs = (dir() / "seq-out.####.exr").string(),
+                      lights = (dir() / "seq.####.json").string();
+    const test::CliRun r = test::runCli("composite " + plates + " " + kLens + " -o " + outs + " --lights-json " + lights +
+                                        " --frames 1-3");
+    ASSERT_EQ(r.exitCode, 0) << r.out;
+    const size_t at = r.out.find("estimated ghost error ");
+    ASSERT_NE(at, std::string::npos) << r.out;
+    const double estimated = 0.01 * std::stod(r.out.substr(at + 22));
+    const ImageLayer f1 = layer((dir() / "seq-out.0001.exr").string(), "flare"),
+                     f2 = layer((dir() / "seq-out.0002.exr").string(), "flare");
+    double diff = 0.0, norm = 0.0;
+    for (size_t i = 0; i < f1.rgb.size(); ++i) {
+        diff += (f2.rgb[i] - f1.rgb[i]) * (f2.rgb[i] - f1.rgb[i]);
+        norm += f1.rgb[i] * f1.rgb[i];
+    }
+    EXPECT_LE(std::sqrt(diff / norm), estimated);
+    const nlohmann::json l2 = readJson((dir() / "seq.0002.json").string())["lights"],
+                         l3 = readJson((dir() / "seq.0003.json").string())["lights"];
+    ASSERT_EQ(l2.size(), 2u);
+    ASSERT_EQ(l3.size(), 2u);
+    for (int i = 0; i < 2; ++i) {
+        EXPECT_EQ(l3[i]["name"], l2[i]["name"]);
+        EXPECT_NEAR(l3[i]["field_deg"][1].get<double>(), l2[i]["field_deg"][1].get<double>(), 0.01);
+    }
+    EXPECT_GT(l3[1]["power"].get<double>(), l3[0]["power"].get<double>());  // b, now the brighter, kept index 1
+
+    const std::string bad = path("bad-seq.exr");
+    const test::CliRun noHashes = test::runCli("composite " + plates + " " + kLens + " -o " + bad + " --frames 1-3");
+    EXPECT_EQ(noHashes.exitCode, 2) << noHashes.out;
+    EXPECT_NE(noHashes.out.find("must hold the frame number"), std::string::npos) << noHashes.out;
 }
 
 // Bad plates: exit 2, a message naming the problem, nothing written. A plate with nothing above
