@@ -14,6 +14,8 @@
 #include "flare/scene/PlateColourSpace.h"
 #include "flare/scene/PlateLights.h"
 #include "flare/scene/PlateSources.h"
+#include "flare/scene/Scene.h"
+#include "flare/scene/SceneJson.h"
 
 namespace flare {
 namespace {
@@ -150,6 +152,33 @@ TEST(PlateSources, GroupsAndCellsAddUp) {
     const PlateSources automatic = findPlateSources(p, std::nullopt, 4);
     EXPECT_NEAR(automatic.threshold, 1e-3 * 300.0, 1e-9);
     EXPECT_EQ(automatic.groups, 3);
+}
+
+// The scene format's { "rgb": [r, g, b] } spectrum: read, written back by sceneToJson to the bit,
+// and its errors (a black colour, two kinds at once) name the line and key.
+TEST(SceneRgbSpectrum, ReadsWritesAndRefuses) {
+    const std::string text = R"({"lens": "double-gauss-50mm",
+        "lights": [{"type": "directional", "field_deg": [3, -2.25], "angular_diameter_deg": 0.1,
+                    "spectrum": {"rgb": [1.0, 0.15, 0.55]}, "power": 12.5}]})";
+    const Scene scene = parseSceneText(text, "rgb.json", "");
+    ASSERT_EQ(scene.lights[0].spectrum.kind, SpectrumSpec::Kind::Rgb);
+    EXPECT_EQ(scene.lights[0].spectrum.rgb, glm::dvec3(1.0, 0.15, 0.55));
+    const Scene again = parseSceneText(sceneToJson(scene).dump(), "again.json", "");
+    EXPECT_EQ(again.lights[0].spectrum.rgb, scene.lights[0].spectrum.rgb);
+    EXPECT_EQ(again.lights[0].fieldYDeg, -2.25);
+    EXPECT_EQ(again.lights[0].power, 12.5);
+    EXPECT_EQ(toSpectrum(again.lights[0].spectrum).kind(), Spectrum::Kind::Smooth);
+    for (const char* bad : {R"({"rgb": [0, 0, 0]})", R"({"rgb": [1, 1, 1], "blackbody_k": 3000})", R"({"rgb": [1, 1]})"}) {
+        const std::string t = std::string(R"({"lens": "double-gauss-50mm", "lights": [{"type": "directional",
+            "field_deg": [0, 0], "spectrum": )") + bad + "}]}";
+        try {
+            parseSceneText(t, "bad.json", "");
+            ADD_FAILURE() << bad;
+        } catch (const InputError& e) {
+            EXPECT_EQ(e.line(), 2) << e.what();
+            EXPECT_NE(std::string(e.what()).find("lights[0].spectrum"), std::string::npos) << e.what();
+        }
+    }
 }
 
 }  // namespace
