@@ -168,11 +168,12 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
     // Sources: cells of --cell-px, grown until at most --max-lights remain.
     int cellPx = o.cellPx;
     PlateSources sources = findPlateSources(plate, o.threshold, cellPx);
+    const std::string thresholdRule = sources.thresholdRule;
     while (static_cast<int>(sources.cells.size()) > o.maxLights && cellPx < std::max(w, h)) {
         cellPx *= 2;
         sources = findPlateSources(plate, sources.threshold, cellPx);
     }
-    sources.thresholdRule = findPlateSources(plate, o.threshold, 1).thresholdRule;
+    sources.thresholdRule = thresholdRule;
     PlateLightSet found = plateLights(lens, map, sources, o.cullShare);
     if (previous) matchPrevious(found.lights, *previous, cellPx);
     std::vector<FrameLight> frameLights;
