@@ -276,6 +276,37 @@ TEST(CompositeCli, ColourSpacesFromAnOcioConfig) {
     ::unsetenv("OCIO");
 }
 
+// --extra-lights: a sun just outside the frame, which the plate cannot show, adds its whole image
+// and ghosts as the `extra` layer (the flare holds it; composite − plate is still the flare), and
+// its name may not repeat a plate source's.
+TEST(CompositeCli, ExtraLightsAddTheirWholeFlare) {
+    const std::string plate = writePlate("extra.exr", {{60, 40, glm::dvec3(500.0)}});
+    const std::string scene = path("extra.json");
+    std::ofstream(scene) << R"({"lens": "double-gauss-50mm", "lights": [{"type": "directional", "name": "sun",
+        "field_deg": [22, 3], "angular_diameter_deg": 0.53, "power": 1000}]})";
+    const std::string out = path("extra-out.exr");
+    const test::CliRun r = test::runCli("composite " + plate + " " + kLens + " -o " + out + " --extra-lights " + scene + " --quiet");
+    ASSERT_EQ(r.exitCode, 0) << r.out;
+    const ImageLayer extra = layer(out, "extra"), flare = layer(out, "flare"), ghost = layer(out, "ghost"),
+                     starburst = layer(out, "starburst"), composite = layer(out, ""), plateLayer = layer(out, "plate");
+    double extraSum = 0.0, largest = 0.0;
+    for (size_t i = 0; i < extra.rgb.size(); ++i) {
+        extraSum += extra.rgb[i];
+        largest = std::max(largest, std::abs(static_cast<double>(composite.rgb[i])));
+    }
+    EXPECT_GT(extraSum, 0.0);
+    for (size_t i = 0; i < flare.rgb.size(); ++i) {
+        ASSERT_NEAR(flare.rgb[i], ghost.rgb[i] + starburst.rgb[i] + extra.rgb[i], 1e-6 * largest) << i;
+        ASSERT_NEAR(composite.rgb[i] - plateLayer.rgb[i], flare.rgb[i], 1e-6 * largest) << i;
+    }
+    std::ofstream(scene) << R"({"lens": "double-gauss-50mm", "lights": [{"type": "directional", "name": "source0-0",
+        "field_deg": [22, 3]}]})";
+    const std::string clash = path("extra-clash.exr");
+    const test::CliRun c = test::runCli("composite " + plate + " " + kLens + " -o " + clash + " --extra-lights " + scene);
+    EXPECT_EQ(c.exitCode, 2) << c.out;
+    EXPECT_FALSE(std::filesystem::exists(clash));
+}
+
 // A sequence (--frames, plate.####.exr): on a static plate the frame-to-frame change is within
 // the render's estimated error (it is none: the same sources keep their random sequences); and
 // when two sources swap which is brighter, each keeps its index and name (matched by position, not
