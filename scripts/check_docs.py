@@ -22,7 +22,7 @@ LINK = re.compile(r"\]\(([^)\s]+)\)")
 OUTSIDE = re.compile(r"\.\./shared\b")
 OPTION = re.compile(r"^\s+(?:(-\w),)?(--[a-z][a-z0-9-]*)", re.MULTILINE)
 COMMANDS = ["lens info", "lens list", "lens search", "lens check", "lens export", "lens draw", "ghosts", "preview",
-            "render", "compare", "dataset", "volume make", "volume info"]
+            "render", "compare", "dataset", "composite", "volume make", "volume info"]
 
 
 def markdown_files(source_dir):

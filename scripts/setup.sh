@@ -30,6 +30,8 @@ packages=(
   # multi-process renders and data sets (src/flare/distributed, docs/distributed.md); optional
   # component: the build works without it
   libopenmpi-dev openmpi-bin
+  # plate colour spaces and display transforms of `flare composite` (src/cli/Composite*)
+  libopencolorio-dev
 )
 # Only for a fuzz build: clang with its sanitizer and libFuzzer runtimes (16: the engine captures
 # structured bindings in lambdas, which clang supports from 16 on; Debian 12's default is 14).

@@ -232,7 +232,7 @@ int run(const RenderCommandOptions& o) {
     };
     // PIZ: a render's layers are grainy, where it beats ZIP in size and time (ImageIO.h). Each
     // per-ghost layer is a part of its own, over its footprint.
-    ExrWriteOptions exrOptions{.storage = {}, .compression = ExrCompression::Piz, .ownParts = {}};
+    ExrWriteOptions exrOptions{.storage = {}, .compression = ExrCompression::Piz, .ownParts = {}, .chromaticities = {}};
     for (const ImageLayer& layer : layers)
         if (layer.name.starts_with("ghost_")) exrOptions.ownParts.insert(layer.name);
     writeExr(outputs, o.exr, layers, metadata, exrOptions);

@@ -6,6 +6,7 @@
 #include <CLI/CLI.hpp>
 
 #include "CompareCommand.h"
+#include "CompositeCommand.h"
 #include "DatasetCommand.h"
 #include "GhostCommands.h"
 #include "GlassCatalogOption.h"
@@ -24,6 +25,7 @@ int main(int argc, char** argv) {
     flare::cli::addRenderCommand(app);
     flare::cli::addCompareCommand(app);
     flare::cli::addDatasetCommand(app);
+    flare::cli::addCompositeCommand(app);
     flare::cli::addVolumeCommands(app);
     flare::cli::addGlassCatalogOptions(app);
     try {

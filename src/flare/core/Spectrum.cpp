@@ -1,5 +1,7 @@
 #include "flare/core/Spectrum.h"
 
+#include "flare/core/SmoothSpectrum.h"
+
 #include <algorithm>
 #include <cassert>
 #include <cmath>
@@ -116,6 +118,13 @@ Spectrum Spectrum::d65() {
     return s;
 }
 
+Spectrum Spectrum::smooth(const glm::dvec3& coefficients) {
+    Spectrum s;
+    s.kind_ = Kind::Smooth;
+    s.coefficients_ = coefficients;
+    return s;
+}
+
 double Spectrum::value(double wavelengthNm) const {
     switch (kind_) {
         case Kind::EqualEnergy: return 1.0;
@@ -123,6 +132,9 @@ double Spectrum::value(double wavelengthNm) const {
             return wavelengthNm > 0.0 ? relativeBlackbody(wavelengthNm, temperatureK_) : 0.0;
         case Kind::D65:
             return 0.01 * interpolate(kD65, kD65Count, (wavelengthNm - kD65FirstNm) / kD65StepNm);
+        case Kind::Smooth:
+            return 0.01 * interpolate(kD65, kD65Count, (wavelengthNm - kD65FirstNm) / kD65StepNm) *
+                   smoothSpectrumShape(coefficients_, wavelengthNm);
     }
     return 0.0;
 }
@@ -131,6 +143,12 @@ std::string Spectrum::describe() const {
     switch (kind_) {
         case Kind::EqualEnergy: return "equal energy (CIE E)";
         case Kind::D65: return "CIE D65";
+        case Kind::Smooth: {
+            char buffer[96];
+            std::snprintf(buffer, sizeof buffer, "smooth (D65 x sigmoid %.4g, %.4g, %.4g)", coefficients_.x,
+                          coefficients_.y, coefficients_.z);
+            return buffer;
+        }
         case Kind::Blackbody: {
             char buffer[48];
             std::snprintf(buffer, sizeof buffer, "blackbody %g K", temperatureK_);

@@ -40,7 +40,7 @@ double planckRadiance(double wavelengthNm, double temperatureK);
 // a Spectrum only carries the shape. Cheap to copy.
 class Spectrum {
 public:
-    enum class Kind { EqualEnergy, Blackbody, D65 };
+    enum class Kind { EqualEnergy, Blackbody, D65, Smooth };
 
     static Spectrum blackbody(double temperatureK);
     // CIE illuminant E: equal power per unit wavelength everywhere.
@@ -48,16 +48,22 @@ public:
     // CIE standard illuminant D65 (CIE 15:2004 Table T.1, 300–830 nm at 5 nm), linearly
     // interpolated; zero outside the table.
     static Spectrum d65();
+    // D65 times a smooth sigmoid (SmoothSpectrum.h) with these coefficients: the spectrum a
+    // plate's colour is given (fitSmoothSpectrum). Not normalised at 560 nm (a saturated blue has
+    // nothing there); like every shape here, the light's power sets the amount.
+    static Spectrum smooth(const glm::dvec3& coefficients);
 
     double value(double wavelengthNm) const;
     Kind kind() const { return kind_; }
     double temperatureK() const { return temperatureK_; }  // Blackbody only, else 0
+    const glm::dvec3& coefficients() const { return coefficients_; }  // Smooth only, else 0
     // "blackbody 5778 K", "CIE D65", "equal energy (CIE E)".
     std::string describe() const;
 
 private:
     Kind kind_ = Kind::EqualEnergy;
     double temperatureK_ = 0.0;
+    glm::dvec3 coefficients_{0.0};
 };
 
 // ∫ S(λ)·(x̄, ȳ, z̄)(λ) dλ over [fromNm, toNm] (clipped to the CIE range), in units of S·nm.

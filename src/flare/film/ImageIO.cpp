@@ -184,11 +184,11 @@ void writeExr(OutputFiles& outputs, const std::string& path, const std::vector<I
         case ExrCompression::Zip: first.compression() = Imf::ZIP_COMPRESSION; break;
         case ExrCompression::Piz: first.compression() = Imf::PIZ_COMPRESSION; break;
     }
-    Imf::addChromaticities(
-        first, Imf::Chromaticities(Imath::V2f(kRec709RedXy[0], kRec709RedXy[1]),
-                                   Imath::V2f(kRec709GreenXy[0], kRec709GreenXy[1]),
-                                   Imath::V2f(kRec709BlueXy[0], kRec709BlueXy[1]),
-                                   Imath::V2f(kD65WhiteXy[0], kD65WhiteXy[1])));
+    const std::array<double, 8> xy = options.chromaticities.value_or(
+        std::array<double, 8>{kRec709RedXy[0], kRec709RedXy[1], kRec709GreenXy[0], kRec709GreenXy[1], kRec709BlueXy[0],
+                              kRec709BlueXy[1], kD65WhiteXy[0], kD65WhiteXy[1]});
+    auto v2 = [&](int i) { return Imath::V2f(static_cast<float>(xy[2 * i]), static_cast<float>(xy[2 * i + 1])); };
+    Imf::addChromaticities(first, Imf::Chromaticities(v2(0), v2(1), v2(2), v2(3)));
     // The attributes every part carries (the display window and chromaticities must agree between
     // parts), before the first part's own.
     const Imf::Header shared = first;

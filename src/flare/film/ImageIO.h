@@ -6,7 +6,9 @@
 #pragma once
 
 #include <cstdint>
+#include <array>
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
 #include <utility>
@@ -73,6 +75,10 @@ struct ExrWriteOptions {
     // Layers written each as a part of its own (by name), with its window as the part's data
     // window: a multi-part file (OpenEXR 2+), whose first part holds the other layers.
     std::set<std::string> ownParts;
+    // The `chromaticities` attribute: CIE xy of red, green, blue and white, in that order. Unset:
+    // linear Rec.709 (every engine image); `flare composite` gives its plate's (the layers are then
+    // in that space).
+    std::optional<std::array<double, 8>> chromaticities;
 };
 
 // Writes the layers as a losslessly compressed EXR, 32-bit float unless options say otherwise,

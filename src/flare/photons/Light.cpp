@@ -5,6 +5,8 @@
 
 #include <glm/geometric.hpp>
 
+#include "flare/core/SmoothSpectrum.h"
+
 namespace flare {
 
 Spectrum toSpectrum(const SpectrumSpec& spec) {
@@ -12,6 +14,7 @@ Spectrum toSpectrum(const SpectrumSpec& spec) {
         case SpectrumSpec::Kind::Blackbody: return Spectrum::blackbody(spec.temperatureK);
         case SpectrumSpec::Kind::D65: return Spectrum::d65();
         case SpectrumSpec::Kind::EqualEnergy: return Spectrum::equalEnergy();
+        case SpectrumSpec::Kind::Rgb: return Spectrum::smooth(fitSmoothSpectrum(linearSrgbToXyz(spec.rgb)).coefficients);
     }
     return Spectrum::equalEnergy();
 }

@@ -14,9 +14,12 @@ namespace flare {
 
 // The spectral shape of a light. Only the shape: the light's `power` sets the amount.
 struct SpectrumSpec {
-    enum class Kind { Blackbody, D65, EqualEnergy };
+    enum class Kind { Blackbody, D65, EqualEnergy, Rgb };
     Kind kind = Kind::Blackbody;
     double temperatureK = 5778.0;  // Blackbody only (5778 K: the sun's effective temperature)
+    // Rgb only: a colour in linear Rec.709 (its scale does not matter), given the smooth spectrum
+    // of that chromaticity (SmoothSpectrum.h): what `flare composite` gives a plate's sources.
+    glm::dvec3 rgb{1.0};
 };
 
 // The spectral shape a SpectrumSpec names.

@@ -14,7 +14,7 @@ constexpr double kMaxAngularDiameterDeg = 20.0;
 
 SpectrumSpec parseSpectrum(const Checker& c, const Node& node, const std::string& path) {
     SpectrumSpec s;
-    const char* kinds = "\"d65\", \"equal_energy\" or { \"blackbody_k\": T }";
+    const char* kinds = "\"d65\", \"equal_energy\", { \"blackbody_k\": T } or { \"rgb\": [r, g, b] }";
     if (node.kind == Node::Kind::String) {
         if (node.text == "d65") s.kind = SpectrumSpec::Kind::D65;
         else if (node.text == "equal_energy") s.kind = SpectrumSpec::Kind::EqualEnergy;
@@ -24,7 +24,17 @@ SpectrumSpec parseSpectrum(const Checker& c, const Node& node, const std::string
         return s;
     }
     if (node.kind != Node::Kind::Object) c.fail(node.line, path, std::string("must be ") + kinds + ", got " + describe(node));
-    c.object(node, path, {"blackbody_k"});
+    c.object(node, path, {"blackbody_k", "rgb"});
+    if (const Member* m = Checker::find(node, "rgb")) {
+        if (Checker::find(node, "blackbody_k")) c.fail(m->value.line, path, "give either blackbody_k or rgb, not both");
+        const std::string rgbPath = child(path, "rgb");
+        const auto& rgb = c.numbers(m->value, rgbPath, 3, "[r, g, b] in linear Rec.709");
+        s.kind = SpectrumSpec::Kind::Rgb;
+        for (int k = 0; k < 3; ++k) s.rgb[k] = c.numberIn(rgb[k], index(rgbPath, k), -1e12, 1e12, "");
+        if (!(linearSrgbToXyz(s.rgb).y > 0.0))
+            c.fail(m->value.line, rgbPath, "the colour must have a positive luminance (Y > 0)");
+        return s;
+    }
     const Member& t = c.require(node, path, "blackbody_k", std::string(" (spectrum objects are ") + kinds + ")");
     s.kind = SpectrumSpec::Kind::Blackbody;
     s.temperatureK = c.numberIn(t.value, child(path, "blackbody_k"), 1000.0, 40000.0, "K");

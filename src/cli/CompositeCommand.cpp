@@ -1,0 +1,419 @@
+#include "CompositeCommand.h"
+
+#include "LayersOption.h"
+#include "Output.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+
+#include "flare/core/Error.h"
+#include "flare/core/OutputFiles.h"
+#include "flare/film/ImageIO.h"
+#include "flare/optics/LensFile.h"
+#include "flare/scene/Plate.h"
+#include "flare/scene/PlateLights.h"
+#include "flare/scene/PlateSources.h"
+#include "flare/scene/Scene.h"
+#include "flare/scene/SceneJson.h"
+#include "flare/scene/ScenePreview.h"
+#include "flare/scene/SceneStarburst.h"
+
+namespace flare::cli {
+
+namespace {
+
+struct CompositeOptions {
+    std::string plate;
+    std::string lens;
+    std::string zoom;
+    std::optional<double> focusMm, fNumber, sensorWidthMm;
+    std::string exr, png, lightsJson, extraLights;
+    std::string colourSpace;
+    std::string frames;  // "FIRST-LAST": a sequence
+    std::optional<double> threshold;
+    int maxLights = 64;
+    int cellPx = 16;
+    double cullShare = 1e-3;
+    LayersOption layers;
+    int passes = PreviewBudget::kDefaultPasses;
+    int beamsPerPass = 64;
+    double timeS = 0.0;
+    double targetError = 0.0;
+    long long seed = -1;
+    std::optional<double> exposureStops;
+    bool noDiffraction = false;
+    bool quiet = false;
+    bool pngGiven = false;
+};
+
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// A layer in the plate's space from interleaved XYZ.
+ImageLayer plateLayer(const std::string& name, const std::vector<float>& xyz, int w, int h, const PlateColourSpace& space) {
+    ImageLayer layer{name, w, h, std::vector<float>(xyz.size())};
+    for (size_t i = 0; i < xyz.size(); i += 3) {
+        const glm::dvec3 rgb = space.fromXyz * glm::dvec3(xyz[i], xyz[i + 1], xyz[i + 2]);
+        for (int k = 0; k < 3; ++k) layer.rgb[i + k] = static_cast<float>(rgb[k]);
+    }
+    return layer;
+}
+
+void addInto(std::vector<float>& into, const std::vector<float>& from, float sign = 1.0f) {
+    if (from.empty()) return;
+    for (size_t i = 0; i < into.size(); ++i) into[i] += sign * from[i];
+}
+
+// Renders `scene`'s preview with the budget: --passes, --time, or --target-error (passes grown
+// from the estimated error, which falls at least as one over the square root of the passes).
+ScenePreview renderFlare(const Scene& scene, const LensSystem& lens, const CompositeOptions& o, bool perGhost,
+                         Clock::time_point start) {
+    PreviewBudget budget;
+    budget.passes = o.passes;
+    budget.beamsPerPass = o.beamsPerPass;
+    if (o.seed >= 0) budget.seed = static_cast<std::uint64_t>(o.seed);
+    budget.ghostLayers = o.layers.selection;
+    if (o.timeS > 0.0) budget.timeS = std::max(1e-3, o.timeS - secondsSince(start));
+    ScenePreview preview = previewScene(scene, lens, perGhost, budget);
+    while (o.targetError > 0.0 && preview.ghostEstimatedError > o.targetError && budget.passes < (1 << 16)) {
+        const double ratio = preview.ghostEstimatedError / o.targetError;
+        const int next = std::min(1 << 16, static_cast<int>(std::ceil(budget.passes * ratio * ratio * 1.2)));
+        budget.passes = std::max(budget.passes * 2, next + (next % 2));  // whole passes per replicate
+        if (!o.quiet)
+            std::fprintf(stderr, "composite: estimated error %.2g%% > %.2g%%: again with %d passes\n",
+                         100.0 * preview.ghostEstimatedError, 100.0 * o.targetError, budget.passes);
+        preview = previewScene(scene, lens, perGhost, budget);
+    }
+    return preview;
+}
+
+// A frame's lights as the next frame matches them: where each is on the plate, and its spec.
+struct FrameLight {
+    glm::dvec2 centroidPx;
+    LightSpec spec;
+};
+
+// Orders this frame's lights as the previous frame's: each previous light takes the nearest
+// unmatched light within `radiusPx` (and its name), at its own index, so that its beams draw the
+// same random sequences (the render keys them by the light's index) and a static or slowly moving
+// source does not flicker; the unmatched follow, strongest first.
+void matchPrevious(std::vector<PlateLight>& lights, const std::vector<FrameLight>& previous, double radiusPx) {
+    std::vector<PlateLight> ordered;
+    std::vector<bool> taken(lights.size(), false);
+    for (const FrameLight& p : previous) {
+        int best = -1;
+        double bestPx = radiusPx;
+        for (size_t i = 0; i < lights.size(); ++i) {
+            const double d = glm::length(lights[i].cell.centroidPx - p.centroidPx);
+            if (!taken[i] && d <= bestPx) {
+                best = static_cast<int>(i);
+                bestPx = d;
+            }
+        }
+        if (best < 0) continue;
+        taken[static_cast<size_t>(best)] = true;
+        ordered.push_back(lights[static_cast<size_t>(best)]);
+        ordered.back().spec.name = p.spec.name;
+    }
+    for (size_t i = 0; i < lights.size(); ++i)
+        if (!taken[i]) ordered.push_back(lights[i]);
+    // Names stay unique: a new light whose name a matched one took gets a suffix.
+    std::set<std::string> names;
+    for (PlateLight& l : ordered) {
+        while (!names.insert(l.spec.name).second) l.spec.name += "'";
+    }
+    lights = std::move(ordered);
+}
+
+std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<FrameLight>* previous) {
+    const Clock::time_point start = Clock::now();
+    if (o.plate.empty()) throw InputError("flare composite", 0, "no plate given (flare composite PLATE.exr --lens LENS -o OUT.exr)");
+    OutputFiles outputs;
+    outputs.add(o.exr, "-o");
+    if (o.pngGiven) outputs.add(o.png, "--png");
+    if (!o.lightsJson.empty()) outputs.add(o.lightsJson, "--lights-json");
+
+    const Plate plate = readPlate(o.plate, o.colourSpace);
+    const int w = plate.width, h = plate.height;
+
+    // The scene: the lens at its state, the plate's frame as the sensor (the lens's sensor width,
+    // or --sensor-width-mm, across the plate's width; square pixels).
+    Scene scene;
+    scene.sourceFile = o.lightsJson.empty() ? o.plate : o.lightsJson;
+    scene.description = "lights found in the plate " + o.plate + " by flare composite";
+    scene.lens = std::filesystem::exists(o.lens) ? std::filesystem::absolute(o.lens).string() : o.lens;
+    scene.lensState = LensState{o.zoom, o.focusMm, o.fNumber};
+    const double widthMm = o.sensorWidthMm ? *o.sensorWidthMm : loadLens(scene.lens).sensor.widthMm;
+    scene.sensor.widthMm = widthMm;
+    scene.sensor.heightMm = widthMm * h / w;
+    scene.sensor.widthPx = w;
+    scene.sensor.heightPx = h;
+    if (o.noDiffraction) scene.render.diffraction = false;
+    if (o.seed >= 0) scene.render.seed = static_cast<std::uint64_t>(o.seed);
+    // `flare preview` of the written scene draws half its beams_per_pass per pass: the same beams.
+    scene.render.beamsPerPass = 2 * o.beamsPerPass;
+    std::vector<LightSpec> extra;
+    if (!o.extraLights.empty()) extra = loadScene(o.extraLights).lights;
+    // A lens without lights: only the optics, for the field mapping.
+    const LensSystem lens = buildSceneLens(scene);
+    const PlateFieldMap map(lens, w, h);
+
+    // Sources: cells of --cell-px, grown until at most --max-lights remain.
+    int cellPx = o.cellPx;
+    PlateSources sources = findPlateSources(plate, o.threshold, cellPx);
+    const std::string thresholdRule = sources.thresholdRule;
+    while (static_cast<int>(sources.cells.size()) > o.maxLights && cellPx < std::max(w, h)) {
+        cellPx *= 2;
+        sources = findPlateSources(plate, sources.threshold, cellPx);
+    }
+    sources.thresholdRule = thresholdRule;
+    PlateLightSet found = plateLights(lens, map, sources, o.cullShare);
+    if (previous) matchPrevious(found.lights, *previous, cellPx);
+    std::vector<FrameLight> frameLights;
+    for (const PlateLight& l : found.lights) frameLights.push_back({l.cell.centroidPx, l.spec});
+    for (const PlateLight& l : found.lights) scene.lights.push_back(l.spec);
+    for (LightSpec l : extra) {
+        for (const LightSpec& other : scene.lights)
+            if (other.name == l.name)
+                throw InputError(o.extraLights, 0, "the light name '" + l.name + "' is also a plate source's; rename it");
+        scene.lights.push_back(l);
+    }
+    if (!o.quiet) {
+        std::fprintf(stderr, "composite: plate %d x %d, colour space %s (%s)\n", w, h, plate.space.name.c_str(),
+                     plate.space.source.c_str());
+        std::fprintf(stderr, "composite: threshold Y > %.6g (%s); %ld source pixels in %d sources, %zu cells of up to %d px\n",
+                     sources.threshold, sources.thresholdRule.c_str(), sources.sourcePixels, sources.groups,
+                     sources.cells.size(), cellPx);
+        if (found.culled)
+            std::fprintf(stderr, "composite: culled the %d dimmest cells (%.3g%% of the sources' power)\n", found.culled,
+                         100.0 * found.culledPowerShare);
+    }
+
+    ScenePreview plateFlare;
+    std::optional<ScenePreview> extraFlare;
+    if (!found.lights.empty()) {
+        Scene plateScene = scene;
+        plateScene.lights.resize(found.lights.size());
+        if (!o.quiet) {
+            std::fprintf(stderr, "composite: rendering the flare of %zu light(s)...\n", plateScene.lights.size());
+            std::fflush(stderr);
+        }
+        // The preview's own starburst diffracts the lights' modelled direct image; the plate's
+        // sources are diffracted below instead.
+        plateScene.render.diffraction = false;
+        plateFlare = renderFlare(plateScene, lens, o, o.layers.given, start);
+    }
+    if (!extra.empty()) {
+        Scene extraScene = scene;
+        extraScene.lights.assign(scene.lights.end() - static_cast<long>(extra.size()), scene.lights.end());
+        extraFlare = renderFlare(extraScene, lens, o, false, start);
+    }
+    if (found.lights.empty()) {
+        std::fprintf(stderr, "composite: warning: no pixel of %s has Y above the threshold %.6g (brightest %.6g): %s\n",
+                     o.plate.c_str(), sources.threshold, sources.maxLuminance,
+                     extra.empty() ? "the composite is the plate" : "only the --extra-lights flare");
+    }
+
+    // The flare in XYZ: the ghosts, and the light's diffraction without its own image (the plate
+    // holds that): starburst − direct, which moves light from the core into the spikes. Lights
+    // from --extra-lights are not in the plate: their whole image is added.
+    const size_t n = 3 * static_cast<size_t>(w) * h;
+    std::vector<float> ghost(n, 0.0f), starburstDelta(n, 0.0f), higher, extraLayer;
+    if (!found.lights.empty()) {
+        addInto(ghost, plateFlare.ghosts);
+        if (scene.render.diffraction) {
+            // The starburst of the plate's own source pixels (each diffracted by the PSF of the
+            // light nearest it), less those pixels: the light the iris moves from the sources' cores
+            // into their spikes. The plate holds the sources, so the composite stays non-negative.
+            std::vector<float> sourceXyz(n, 0.0f);
+            for (size_t p = 0; p < n / 3; ++p) {
+                const glm::dvec3 xyz = plate.space.toXyz * plate.pixel(static_cast<int>(p % w), static_cast<int>(p / w));
+                if (!(xyz.y > sources.threshold)) continue;
+                for (int k = 0; k < 3; ++k) sourceXyz[3 * p + k] = static_cast<float>(xyz[k]);
+            }
+            Scene plateScene = scene;
+            plateScene.lights.resize(found.lights.size());
+            const StarburstImage starburst = sceneStarburst(plateScene, lens, sourceXyz, w, h);
+            addInto(starburstDelta, starburst.xyz);
+            addInto(starburstDelta, sourceXyz, -1.0f);
+        }
+        if (!plateFlare.higher.empty()) higher = plateFlare.higher;
+    }
+    if (extraFlare) {
+        extraLayer.assign(n, 0.0f);
+        addInto(extraLayer, extraFlare->starburst ? extraFlare->starburst->xyz : extraFlare->direct);
+        addInto(extraLayer, extraFlare->ghosts);
+    }
+    std::vector<float> flareXyz = ghost;
+    addInto(flareXyz, starburstDelta);
+    addInto(flareXyz, higher);
+    addInto(flareXyz, extraLayer);
+
+    std::vector<ImageLayer> layers;
+    ImageLayer flare = plateLayer("flare", flareXyz, w, h, plate.space);
+    ImageLayer composite{"", w, h, plate.rgb};
+    for (size_t i = 0; i < n; ++i) composite.rgb[i] += flare.rgb[i];
+    layers.push_back(composite);
+    layers.push_back(ImageLayer{"plate", w, h, plate.rgb});
+    layers.push_back(std::move(flare));
+    layers.push_back(plateLayer("ghost", ghost, w, h, plate.space));
+    if (scene.render.diffraction) layers.push_back(plateLayer("starburst", starburstDelta, w, h, plate.space));
+    if (!higher.empty()) layers.push_back(plateLayer("higher", higher, w, h, plate.space));
+    if (!extraLayer.empty()) layers.push_back(plateLayer("extra", extraLayer, w, h, plate.space));
+    ExrWriteOptions storage;
+    storage.chromaticities = plate.space.chromaticities;
+    if (o.layers.given && !found.lights.empty()) {
+        // Per-ghost layers as `flare preview` writes them: parts of their own over their footprints.
+        for (auto& [name, window] : plateFlare.perGhost) {
+            ImageLayer layer = plateLayer(name, window.xyz, window.width, window.height, plate.space);
+            layer.x = window.x;
+            layer.y = window.y;
+            storage.ownParts.insert(name);
+            storage.storage[name] = fitsHalf(layer) ? ExrStorage::Half : ExrStorage::FloatHalfPrecision;
+            layers.push_back(std::move(layer));
+        }
+    }
+    char threshold[64];
+    std::snprintf(threshold, sizeof threshold, "%.9g", sources.threshold);
+    const std::vector<std::pair<std::string, std::string>> metadata = {
+        {"software", "flare composite"},
+        {"colorSpace", plate.space.name},
+        {"plate", o.plate},
+        {"lens", lens.name()},
+        {"sourceThreshold", threshold},
+        {"lights", std::to_string(found.lights.size())},
+        {"flareLayers", "composite = plate + flare; flare = ghost + starburst (+ higher, extra)"},
+    };
+    writeExr(outputs, o.exr, layers, metadata, storage);
+    if (o.pngGiven) {
+        // The PNG in linear Rec.709 (displayEncode's input); the plate's own exposure unless --exposure.
+        ImageLayer rec709 = composite;
+        const glm::dmat3 toRec709 = xyzToLinearSrgbMatrix() * plate.space.toXyz;
+        for (size_t i = 0; i < n; i += 3) {
+            const glm::dvec3 v = toRec709 * glm::dvec3(composite.rgb[i], composite.rgb[i + 1], composite.rgb[i + 2]);
+            for (int k = 0; k < 3; ++k) rec709.rgb[i + k] = static_cast<float>(v[k]);
+        }
+        writePng(outputs, o.png, rec709, std::exp2(o.exposureStops.value_or(0.0)));
+    }
+    if (!o.lightsJson.empty()) outputs.write(o.lightsJson, jsonText(sceneToJson(scene)) + "\n");
+    outputs.commit();
+
+    if (!o.quiet) {
+        if (!found.lights.empty())
+            std::fprintf(stderr, "composite: %d ghosts by beams, %d passes, estimated ghost error %.2g%%\n",
+                         plateFlare.renderedGhosts, plateFlare.passes, 100.0 * plateFlare.ghostEstimatedError);
+        std::fprintf(stderr, "composite: %zu light(s), %.2f s\n", scene.lights.size(), secondsSince(start));
+    }
+    std::printf("wrote %s%s%s%s%s\n", o.exr.c_str(), o.pngGiven ? " and " : "", o.pngGiven ? o.png.c_str() : "",
+                o.lightsJson.empty() ? "" : " and ", o.lightsJson.c_str());
+    return frameLights;
+}
+
+// `name` with its run of '#' replaced by the frame number, zero-padded to the run's length.
+std::string frameName(const std::string& name, int frame) {
+    const size_t first = name.find('#');
+    if (first == std::string::npos) return name;
+    const size_t last = name.find_first_not_of('#', first);
+    const size_t width = (last == std::string::npos ? name.size() : last) - first;
+    std::string number = std::to_string(frame);
+    if (number.size() < width) number.insert(0, width - number.size(), '0');
+    return name.substr(0, first) + number + name.substr(first + width);
+}
+
+void run(CompositeOptions& o) {
+    if (o.frames.empty()) {
+        runFrame(o, nullptr);
+        return;
+    }
+    // A sequence: every named output must carry the frame number, the frames run in order, and
+    // each frame's sources are matched to the previous frame's (matchPrevious).
+    const size_t dash = o.frames.find('-', 1);
+    int first = 0, last = 0;
+    try {
+        size_t used = 0;
+        first = std::stoi(o.frames, &used);
+        last = dash == std::string::npos ? first : std::stoi(o.frames.substr(dash + 1), &used);
+    } catch (const std::exception&) {
+        throw InputError("--frames", 0, "must be a frame range FIRST-LAST (e.g. 1-48), got '" + o.frames + "'");
+    }
+    if (last < first) throw InputError("--frames", 0, "the range " + o.frames + " is empty (LAST < FIRST)");
+    for (const auto& [value, option] : {std::pair{o.plate, "PLATE"}, std::pair{o.exr, "-o"}, std::pair{o.png, "--png"},
+                                        std::pair{o.lightsJson, "--lights-json"}})
+        if (!value.empty() && value.find('#') == std::string::npos)
+            throw InputError(option, 0, std::string("with --frames, ") + option + " must hold the frame number as a run of '#' (plate.####.exr), got '" + value + "'");
+    std::vector<FrameLight> previous;
+    for (int frame = first; frame <= last; ++frame) {
+        CompositeOptions f = o;
+        f.plate = frameName(o.plate, frame);
+        f.exr = frameName(o.exr, frame);
+        f.png = frameName(o.png, frame);
+        f.lightsJson = frameName(o.lightsJson, frame);
+        previous = runFrame(f, frame == first ? nullptr : &previous);
+    }
+}
+
+}  // namespace
+
+void addCompositeCommand(CLI::App& app) {
+    auto o = std::make_shared<CompositeOptions>();
+    CLI::App* c = app.add_subcommand(
+        "composite", "the flare of a plate's bright sources through a lens, added over the plate (EXR with layers, PNG)");
+    c->add_option("PLATE", o->plate, "linear HDR EXR (a photograph or a rendering)");
+    c->add_option("--lens", o->lens, "lens file, shipped lens name or library id")->required();
+    c->add_option("--zoom", o->zoom, "zoom position name, or a focal length in mm");
+    c->add_option("--focus", o->focusMm, "object distance in mm from the first vertex (default: the lens file's)")
+        ->check(CLI::PositiveNumber);
+    c->add_option("--f-number", o->fNumber, "stop the iris down to this f-number")->check(CLI::PositiveNumber);
+    c->add_option("--sensor-width-mm", o->sensorWidthMm,
+                  "the plate's width on the sensor (default: the lens's sensor width); sets the field of view")
+        ->check(CLI::Range(1e-3, 1000.0));
+    c->add_option("-o,--output", o->exr, "EXR to write: composite, plate, flare and its layers")->required();
+    c->add_option("--png", o->png, "also write the composite as a tone-mapped PNG");
+    addExposureOption(c, o->exposureStops);
+    c->add_option("--colorspace", o->colourSpace,
+                  "the plate's colour space: ACEScg, ACES2065-1, linear Rec.709, or a name in the $OCIO config "
+                  "(default: the file's chromaticities)");
+    c->add_option("--threshold", o->threshold, "luminance above which a pixel is a source (default: from the image)")
+        ->check(CLI::NonNegativeNumber);
+    c->add_option("--cell-px", o->cellPx, "side in pixels of the grid cells the source pixels are gathered in, one light each (default 16)")
+        ->check(CLI::Range(1, 4096));
+    c->add_option("--max-lights", o->maxLights, "at most this many lights: cells grow until they fit (default 64)")
+        ->check(CLI::Range(1, 65536));
+    c->add_option("--cull-share", o->cullShare,
+                  "leave out the dimmest cells while together they hold at most this share of the power (default 1e-3)")
+        ->check(CLI::Range(0.0, 0.5));
+    c->add_option("--extra-lights", o->extraLights, "scene file whose lights are added (sources the plate cannot show)");
+    c->add_option("--lights-json", o->lightsJson, "write the scene of the lights found (edit it, render it)");
+    addLayersOption(c, o->layers, "add the per-ghost layers (ghost_03_07.R/G/B, half precision, parts of their own)");
+    c->add_flag("--no-diffraction", o->noDiffraction, "no starburst layer");
+    auto* passes = c->add_option("--passes", o->passes, "passes of the preview's beams (default 2)")->check(CLI::Range(1, 1 << 16));
+    auto* time = c->add_option("--time", o->timeS, "as many passes as fit in this many seconds")->check(CLI::PositiveNumber);
+    auto* error = c->add_option("--target-error", o->targetError,
+                                "passes until the flare's estimated relative error is below this (e.g. 0.05)")
+                      ->check(CLI::Range(1e-4, 1.0));
+    time->excludes(passes)->excludes(error);
+    error->excludes(passes);
+    c->add_option("--beams-per-pass", o->beamsPerPass,
+                  "beams per pass and light (default 64: many lights share the frame, and each light's error "
+                  "matters in proportion to its power)")
+        ->check(CLI::Range(8, 32768));
+    c->add_option("--frames", o->frames,
+                  "a sequence FIRST-LAST: PLATE, -o (and --png, --lights-json) hold the frame number as '####'; "
+                  "sources are matched frame to frame so that their flare does not flicker");
+    c->add_option("--seed", o->seed, "random seed of the beams (default 1)")->check(CLI::Range(0LL, (1LL << 62)));
+    c->add_flag("--quiet", o->quiet, "no statistics on stderr");
+    c->callback([o, c] {
+        o->pngGiven = c->count("--png") > 0;
+        resolveLayersOption(c, o->layers, o->plate);
+        run(*o);
+    });
+}
+
+}  // namespace flare::cli
