@@ -265,8 +265,9 @@ def cmd_overlay(a):
     sun_px = (width * (0.5 - (-efl * math.tan(math.radians(fx))) / sensor_w),
               height * (0.5 + (-efl * math.tan(math.radians(fy))) / sensor_h))
     # The sky's level: a fixed fraction of the flare's ghosts' brightest pixels, so that the ghosts
-    # show over it as in a photograph against the sun (the 99th percentile of the lit ghost pixels).
-    ghost = np.asarray(images["ghost"], dtype=np.float64)
+    # show over it as in a photograph against the sun (the 99th percentile of the lit ghost pixels;
+    # of the whole flare when the EXR has no `ghost` layer, as a preview without --layers).
+    ghost = np.asarray(images.get("ghost", main), dtype=np.float64)
     y = 0.2126 * ghost[..., 0] + 0.7152 * ghost[..., 1] + 0.0722 * ghost[..., 2]
     lit = y[y > 1e-6 * y.max()] if y.max() > 0 else np.array([1.0])
     sky = float(np.percentile(lit, 99)) * a.sky_level
