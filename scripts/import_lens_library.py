@@ -569,6 +569,20 @@ def main():
                 continue
             passed.append(path)
 
+        # Lenses entered by hand from a patent (index entries of another collection, such as the
+        # thesis's 80-200 mm zoom) are not the collection's: kept as they are, files and entries.
+        kept_entries, kept_files = [], {}
+        if os.path.isfile(os.path.join(args.out, "index.json")):
+            with open(os.path.join(args.out, "index.json"), encoding="utf-8") as f:
+                old_index = json.load(f)
+            for e in old_index.get("lenses", []):
+                if e.get("collection", COLLECTION) != COLLECTION:
+                    kept_entries.append(e)
+                    with open(os.path.join(args.out, e["file"]), encoding="utf-8") as f:
+                        kept_files[e["file"]] = f.read()
+            kept_collections = {k: v for k, v in old_index.get("collections", {}).items() if k != COLLECTION}
+        else:
+            kept_collections = {}
         if os.path.isdir(args.out):
             for entry in os.listdir(args.out):
                 full = os.path.join(args.out, entry)
@@ -632,10 +646,15 @@ def main():
                 # zoom's range is kept apart from what a search by focal length matches.
                 entry["zoom_range_mm"] = sorted(focal_range)
             index.append(entry)
+        for relative, text in kept_files.items():
+            os.makedirs(os.path.dirname(os.path.join(args.out, relative)), exist_ok=True)
+            with open(os.path.join(args.out, relative), "w", encoding="utf-8") as f:
+                f.write(text)
+        index.extend(kept_entries)
         index.sort(key=lambda e: (e["maker"].lower(), e["focal_length_mm"], e["id"]))
         set_aside.sort(key=lambda e: (e["cause"], e["source_file"]))
         meta = {"collections": {COLLECTION: {"description": COLLECTION_TEXT, "licence": "MIT",
-                                             "commit": args.source_commit}}}
+                                             "commit": args.source_commit}, **kept_collections}}
         with open(os.path.join(args.out, "index.json"), "w", encoding="utf-8") as f:
             json.dump({**meta, "lenses": index}, f, indent=1, ensure_ascii=False)
             f.write("\n")

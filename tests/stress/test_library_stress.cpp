@@ -3,7 +3,9 @@
 // analysis for a light off axis, and a small spectral preview, with every power, footprint and
 // pixel finite; then the numerical-stability stress runs of Stress.h (sequential traces, photon
 // histories), fed with the library's lenses instead of random ones.
-// Environment: FLARE_LIBRARY_LENSES=N checks only every k-th lens so that about N are checked.
+// Environment: FLARE_LIBRARY_LENSES=N checks only every k-th lens so that about N are checked, and
+// always the lenses tagged "thesis" (the thesis reproduction's zoom, docs/thesis.md).
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -34,7 +36,11 @@ std::vector<const LibraryLens*> lensesToCheck(const LensLibrary& library) {
     if (const char* n = std::getenv("FLARE_LIBRARY_LENSES"))
         step = std::max<size_t>(1, library.lenses().size() / std::max(1, std::atoi(n)));
     std::vector<const LibraryLens*> out;
-    for (size_t i = 0; i < library.lenses().size(); i += step) out.push_back(&library.lenses()[i]);
+    for (size_t i = 0; i < library.lenses().size(); ++i) {
+        const LibraryLens& lens = library.lenses()[i];
+        const bool thesis = std::find(lens.tags.begin(), lens.tags.end(), "thesis") != lens.tags.end();
+        if (i % step == 0 || thesis) out.push_back(&lens);
+    }
     return out;
 }
 

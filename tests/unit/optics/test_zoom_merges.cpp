@@ -112,6 +112,9 @@ TEST(ZoomMerges, LibraryZoomsWithPositions) {
     const LensLibrary library = LensLibrary::load({test::sourcePath("lenses/library")});
     int zooms = 0, withPositions = 0;
     for (const LibraryLens& lens : library.lenses()) {
+        // The imported collection's zooms (a lens entered by hand from a patent, such as the
+        // thesis reproduction's 80-200 mm, is not one of them).
+        if (lens.collection != "flaresim") continue;
         zooms += lens.kind == "zoom";
         withPositions += lens.kind == "zoom" && !lens.zoomPositions.empty();
     }
