@@ -11,54 +11,25 @@ thousands and the sun about 10^5.
 Usage: scripts/make-plates.py OUT_DIR [--width W]   (default 1920; the height is 9/16 of it: the
        docs' pictures use 960, quick tests 480)
 
-The EXRs are written uncompressed, single part, 32-bit float R, G, B, with the chromaticities of
-linear Rec.709 (the writer below follows the OpenEXR file layout; numpy only).
+The EXRs are written by the engine's own writer (flare.write_exr: OpenEXR, uncompressed, 32-bit
+float R, G, B, the chromaticities of linear Rec.709); the module is taken from build/python when it
+is not on the path.
 """
 import os
-import struct
 import sys
 
 import numpy as np
 
-REC709_CHROMATICITIES = (0.64, 0.33, 0.30, 0.60, 0.15, 0.06, 0.3127, 0.3290)
+try:
+    import flare
+except ImportError:
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "build", "python"))
+    import flare
 
 
-def attribute(name, kind, payload):
-    return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(payload)) + payload
-
-
-def write_exr(path, rgb, chromaticities=REC709_CHROMATICITIES):
-    """An uncompressed scanline EXR of an H x W x 3 float array (R, G, B)."""
-    h, w, _ = rgb.shape
-    channels = b""
-    for name in "BGR":  # channels are stored in alphabetical order
-        channels += name.encode() + b"\0" + struct.pack("<iB3xii", 2, 0, 1, 1)  # FLOAT, not linear, sampling 1
-    channels += b"\0"
-    box = struct.pack("<iiii", 0, 0, w - 1, h - 1)
-    header = b"".join([
-        attribute("channels", "chlist", channels),
-        attribute("chromaticities", "chromaticities", struct.pack("<8f", *chromaticities)),
-        attribute("compression", "compression", b"\0"),
-        attribute("dataWindow", "box2i", box),
-        attribute("displayWindow", "box2i", box),
-        attribute("lineOrder", "lineOrder", b"\0"),
-        attribute("pixelAspectRatio", "float", struct.pack("<f", 1.0)),
-        attribute("screenWindowCenter", "v2f", struct.pack("<ff", 0.0, 0.0)),
-        attribute("screenWindowWidth", "float", struct.pack("<f", 1.0)),
-    ]) + b"\0"
-    start = 8 + len(header) + 8 * h
-    line_bytes = 8 + 3 * 4 * w
-    offsets = struct.pack(f"<{h}Q", *[start + y * line_bytes for y in range(h)])
-    data = np.ascontiguousarray(rgb[:, :, ::-1].transpose(0, 2, 1), dtype="<f4")  # per line: B, G, R planes
-    tmp = path + ".partial"
-    with open(tmp, "wb") as f:
-        f.write(struct.pack("<ii", 20000630, 2))
-        f.write(header)
-        f.write(offsets)
-        for y in range(h):
-            f.write(struct.pack("<ii", y, 3 * 4 * w))
-            f.write(data[y].tobytes())
-    os.replace(tmp, path)
+def write_exr(path, rgb):
+    """An H x W x 3 float array (R, G, B, linear Rec.709) as an uncompressed EXR, all or nothing."""
+    flare.write_exr(path, {"": np.ascontiguousarray(rgb, dtype=np.float32)}, compression="none")
 
 
 def disk_cover(shape, cx, cy, radius):

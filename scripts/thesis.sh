@@ -49,10 +49,11 @@ lens=nikon-ai-s-zoom-nikkor-80-200mm-f2.8-ed
 
 # Budgets. Quick: seconds per image. Full: the error or time the thesis's comparisons need.
 if [ $quick = 1 ]; then
-    res=192,128; study="--time 3"; sweep="--time 2"; bounce="--time 5"
+    res=192,128; study="--time 3"; sweep="--time 2"; bounce="--time 5"; composite="--passes 2"
     high="--photons 2000000 --target-error 0"; target="--target-error 0.05 --time 60"; naive="--time 8"
 else
     res=384,256; study="--target-error 0.02 --time 45"; sweep="--target-error 0.03 --time 20"; bounce="--time 60"
+    composite="--target-error 0.05"
     high="--photons 20000000 --target-error 0 --time 300"; target="--target-error 0.01 --time 300"; naive="--time 300"
 fi
 
@@ -182,9 +183,14 @@ for d in inf 10000 5000 2500; do
 done
 
 # ---- 6. The flare as an overlay over a frame (abstract; thesis 5.1's set-up) -------------------
-# HOOK: when `flare composite` (issue 29) is in the program, this step becomes its call on the
-# same inputs (the frame and position-midfield.exr, linear, W/m²); until then the documented merge
-# of scripts/thesis_tools.py overlay (frame + flare, pixel by pixel) does it.
+# Two ways: a rendered flare merged over a generated frame (scripts/thesis_tools.py overlay, frame +
+# flare pixel by pixel), and `flare composite`, which finds the bright sources of a plate (the
+# sunlit plate of scripts/make-plates.py) and adds the flare they make through the lens.
+"$py" "$root/scripts/make-plates.py" plates --width "${res%%,*}" >/dev/null
+run composite "5.1" "flare composite: the sun of a sunlit plate through the 80-200 at 80 mm, f/4" - \
+    composite.exr composite.png -- \
+    "$flare" composite plates/sunlit.exr --lens "$lens" --zoom wide --f-number 4 -o composite.exr --png composite.png \
+        $composite --quiet
 run overlay "5.1" "the mid-field flare merged over a generated frame (frame + flare)" - \
     overlay.exr overlay.png overlay-frame.png -- \
     tools overlay --scene scene-position-midfield.json --flare-exr position-midfield.exr \
