@@ -17,6 +17,11 @@ namespace {
 
 double cross(const glm::dvec2& a, const glm::dvec2& b) { return a.x * b.y - a.y * b.x; }
 
+// The mesh places a vertex where the rays leave the sensor by interpolating their margins across a
+// cell: on the default scene within 0.3 px of the edge (half a pixel here). A real rim that runs
+// along the sensor's edge within that distance loses nothing visible by it.
+constexpr double kOnEdgePx = 0.5;
+
 // Vertices are shared exactly by neighbouring triangles, except where the guide mask's clip cut
 // an edge twice (once from each side, interpolating in opposite directions): a key on a 1e-9 mm
 // grid of the pupil joins those too.
@@ -28,7 +33,7 @@ std::uint64_t vertexKey(const glm::dvec2& pupilMm) {
 
 }  // namespace
 
-BeamRim BeamRim::build(const std::vector<RimTriangle>& triangles, double edgeScalePx, int heightPx,
+BeamRim BeamRim::build(const std::vector<RimTriangle>& triangles, double edgeScalePx, int widthPx, int heightPx,
                        const std::function<bool(const glm::dvec2& pupilMm)>& covered) {
     BeamRim rim;
     rim.edgeScalePx_ = edgeScalePx;
@@ -77,6 +82,11 @@ BeamRim BeamRim::build(const std::vector<RimTriangle>& triangles, double edgeSca
         s.b = b.pixel;
         s.length = glm::length(s.b - s.a);
         if (!(s.length > 1e-9)) continue;
+        // Along the sensor's edge.
+        auto along = [&](double p, double q, double line) { return std::abs(p - line) < kOnEdgePx && std::abs(q - line) < kOnEdgePx; };
+        if (along(s.a.x, s.b.x, 0.0) || along(s.a.x, s.b.x, widthPx) || along(s.a.y, s.b.y, 0.0) ||
+            along(s.a.y, s.b.y, heightPx))
+            continue;
         s.along = (s.b - s.a) / s.length;
         s.inward = {-s.along.y, s.along.x};
         const double side = glm::dot(c.pixel - s.a, s.inward);
@@ -153,6 +163,7 @@ void BeamRim::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3& 
     if (segments_.empty() || band < 0 || band >= bands) return;
     const FresnelEdgeExcess& excess = FresnelEdgeExcess::instance();
     const double inverseScale = 1.0 / edgeScalePx_;
+    const double reach = FresnelEdgeExcess::kReach * edgeScalePx_;
     const int rowBegin = band * Film::kBandRows, rowEnd = std::min(heightPx, rowBegin + Film::kBandRows);
     // Pixels whose jittered centre lies on the sensor (GhostBeam::rasterise).
     const int columnLo = std::max(0, static_cast<int>(std::ceil(-0.5 - jitterPx.x)));
@@ -171,10 +182,17 @@ void BeamRim::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3& 
             for (int column = c0; column <= c1; ++column, q += 3) {
                 const glm::dvec2 p(column + 0.5 + jitterPx.x, row + 0.5 + jitterPx.y);
                 const glm::dvec2 fromA = p - s.a;
-                const double u = glm::dot(fromA, s.inward) * inverseScale;
-                if (!(std::abs(u) < FresnelEdgeExcess::kReach)) continue;
+                const double across = glm::dot(fromA, s.inward);
+                if (!(std::abs(across) < reach)) continue;
                 if (cross(s.bisectorA, fromA) * s.sideA < 0.0 || cross(s.bisectorB, p - s.b) * s.sideB <= 0.0) continue;
-                const double t = std::clamp(glm::dot(fromA, s.along) / s.length, 0.0, 1.0);
+                // The distance to the segment (to its end beyond it, in the fan of a corner: the
+                // rim's mesh vertices carry small placement errors, and the distance to a line
+                // through two close ones would swing with them), signed by the side.
+                const double alongPx = glm::dot(fromA, s.along);
+                const double t = std::clamp(alongPx / s.length, 0.0, 1.0);
+                const double beyond = alongPx - t * s.length;
+                const double u = std::copysign(std::sqrt(across * across + beyond * beyond), across) * inverseScale;
+                if (!(std::abs(u) < FresnelEdgeExcess::kReach)) continue;
                 const double value = ((1.0 - t) * s.irradianceA + t * s.irradianceB) * excess(u);
                 q[0] += value * scale.x;
                 q[1] += value * scale.y;

@@ -3,13 +3,14 @@
 // whose wedge holds it (the wedge between the bisectors of the rim's angles at the segment's two
 // ends, so that the segments share the rim's surroundings without gaps or overlaps), and gets the
 // irradiance at the segment, interpolated along it, times the straight edge's excess over the
-// geometric step (FresnelEdgeExcess) at u = the pixel's distance from the segment's line / w,
-// positive inside. The excess integrates to zero across an edge, so the ringing moves power and
+// geometric step (FresnelEdgeExcess) at u = the pixel's distance from the segment / w, positive
+// inside. The excess integrates to zero across an edge, so the ringing moves power and
 // makes none (to the pixel sampling and a rim's curvature over w: O((w / R)²)).
 //
 // The rim is the set of mesh edges that belong to a single triangle and have no triangle beyond
 // them in the pupil (an edge of a coarse cell next to two finer ones belongs to one triangle, but
-// the finer ones cover its far side). A fold of the map (a caustic) is not on it and stays
+// the finer ones cover its far side), less those along the sensor's edge (where the mesh stops
+// because the rays leave the sensor: no aperture there). A fold of the map (a caustic) is not on it and stays
 // geometric; so do edges of small triangles (under a pixel²: near a focus, where the straight-edge
 // model does not apply anyway).
 #pragma once
@@ -37,9 +38,9 @@ class BeamRim {
 public:
     BeamRim() = default;
     // The rim of `triangles` (vertices shared exactly between neighbours, as the mesh gives them),
-    // ringing at the Fresnel scale w = `edgeScalePx` (> 0), for a film `heightPx` rows tall.
+    // ringing at the Fresnel scale w = `edgeScalePx` (> 0), for a film of widthPx × heightPx.
     // `covered(pupilMm)`: whether a pupil point lies in some triangle.
-    static BeamRim build(const std::vector<RimTriangle>& triangles, double edgeScalePx, int heightPx,
+    static BeamRim build(const std::vector<RimTriangle>& triangles, double edgeScalePx, int widthPx, int heightPx,
                          const std::function<bool(const glm::dvec2& pupilMm)>& covered);
 
     bool empty() const { return segments_.empty(); }

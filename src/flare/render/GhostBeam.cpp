@@ -220,7 +220,7 @@ void GhostBeam::ring(double edgeScalePx) {
         rimTriangles[n].small = t.small;
     }
     std::call_once(*indexOnce_, [this] { index(); });
-    rim_ = BeamRim::build(rimTriangles, edgeScalePx, frame_.heightPx, [this](const glm::dvec2& pupilMm) {
+    rim_ = BeamRim::build(rimTriangles, edgeScalePx, frame_.widthPx, frame_.heightPx, [this](const glm::dvec2& pupilMm) {
         double l1 = 0.0, l2 = 0.0;
         return locate(pupilMm, &l1, &l2) != nullptr;
     });
