@@ -178,8 +178,30 @@ void BeamRim::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3& 
         const int c0 = std::max(columnLo, static_cast<int>(std::ceil(s.columnMin - 0.5 - jitterPx.x)));
         const int c1 = std::min(columnHi, static_cast<int>(std::floor(s.columnMax - 0.5 - jitterPx.x)));
         for (int row = r0; row <= r1; ++row) {
-            double* q = rows + (static_cast<size_t>(row - rowBegin) * widthPx + c0) * 3;
-            for (int column = c0; column <= c1; ++column, q += 3) {
+            // The row's span where the pixel can pass the tests below, from their three linear
+            // constraints in x (within the band of the reach, on the wedge's side of either
+            // bisector), widened by a pixel: the tests themselves decide.
+            const double y = row + 0.5 + jitterPx.y;
+            double lo = -1e300, hi = 1e300;
+            auto keep = [&](double k0, double k1) {  // k0 + k1·x ≥ 0
+                if (std::abs(k1) < 1e-12) {
+                    if (k0 < 0.0) lo = 1e300;
+                } else if (k1 > 0.0) {
+                    lo = std::max(lo, -k0 / k1);
+                } else {
+                    hi = std::min(hi, -k0 / k1);
+                }
+            };
+            const double acrossAtZero = s.inward.y * (y - s.a.y) - s.inward.x * s.a.x;
+            keep(reach - acrossAtZero, -s.inward.x);
+            keep(reach + acrossAtZero, s.inward.x);
+            keep(s.sideA * (s.bisectorA.x * (y - s.a.y) + s.bisectorA.y * s.a.x), -s.sideA * s.bisectorA.y);
+            keep(s.sideB * (s.bisectorB.x * (y - s.b.y) + s.bisectorB.y * s.b.x), -s.sideB * s.bisectorB.y);
+            if (!(lo <= hi)) continue;
+            const int first = std::max(c0, static_cast<int>(std::max(std::ceil(lo - 0.5 - jitterPx.x) - 1.0, -1e9)));
+            const int last = std::min(c1, static_cast<int>(std::min(std::floor(hi - 0.5 - jitterPx.x) + 1.0, 1e9)));
+            double* q = rows + (static_cast<size_t>(row - rowBegin) * widthPx + first) * 3;
+            for (int column = first; column <= last; ++column, q += 3) {
                 const glm::dvec2 p(column + 0.5 + jitterPx.x, row + 0.5 + jitterPx.y);
                 const glm::dvec2 fromA = p - s.a;
                 const double across = glm::dot(fromA, s.inward);
