@@ -27,6 +27,7 @@ struct PreviewCommandOptions {
     LayersOption layers;
     bool floatLayers = false;
     bool noDiffraction = false;
+    bool noGhostRinging = false;
     bool higher = false;
     int passes = PreviewBudget::kDefaultPasses;
     int beamsPerPass = 0;
@@ -45,6 +46,7 @@ void run(const PreviewCommandOptions& o) {
     if (o.pngGiven) outputs.add(o.png, "--png");
     Scene scene = o.scene.empty() ? defaultScene() : loadScene(o.scene);
     if (o.noDiffraction) scene.render.diffraction = false;
+    if (o.noGhostRinging) scene.render.ghostRinging = false;
     const LensSystem lens = buildSceneLens(scene);
 
     if (!o.quiet) {
@@ -123,6 +125,8 @@ void addPreviewCommand(CLI::App& app) {
     addLayersOption(preview, o->layers,
                     "add layers: direct, starburst (the direct image diffracted), ghost (32-bit float) and one per ghost "
                     "(ghost_03_07.R/G/B, half precision)");
+    preview->add_flag("--no-ghost-ringing", o->noGhostRinging,
+                      "leave the ghosts' rims geometric: no Fresnel ripples (as the scene's render.ghost_ringing: false)");
     preview->add_flag("--no-diffraction", o->noDiffraction,
                       "leave the light's own image geometric: no starburst (as the scene's render.diffraction: false)");
     preview->add_flag("--float-layers", o->floatLayers, "with --layers: store the per-ghost layers as exact 32-bit float");

@@ -53,6 +53,7 @@ struct RenderCommandOptions {
     double interiorAlbedo = -1.0;  // < 0: the scene's finishes
     LayersOption layers;
     bool noDiffraction = false;
+    bool noGhostRinging = false;
     bool analogStray = false;
     bool quiet = false;
     bool pngGiven = false, reportGiven = false, checkpointGiven = false;  // given, even as ""
@@ -104,6 +105,7 @@ int run(const RenderCommandOptions& o) {
     auto previous = std::signal(SIGINT, onInterrupt);
     Scene scene = o.scene.empty() ? defaultScene() : loadScene(o.scene);
     if (o.noDiffraction) scene.render.diffraction = false;
+    if (o.noGhostRinging) scene.render.ghostRinging = false;
     const LensSystem lens = buildSceneLens(scene);
 
     SceneRenderOverrides overrides;
@@ -305,6 +307,8 @@ void addRenderCommand(CLI::App& app) {
     addLayersOption(render, o->layers,
                     "add one layer per kept ghost (ghost_03_07.R/G/B) and per scatter source the scene has "
                     "(scatter_housing, scatter_dust, scatter_grease, scatter_bulk)");
+    render->add_flag("--no-ghost-ringing", o->noGhostRinging,
+                     "leave the ghosts' rims geometric: no Fresnel ripples (as the scene's render.ghost_ringing: false)");
     render->add_flag("--no-diffraction", o->noDiffraction,
                      "leave the light's own image geometric: no starburst layer (as the scene's render.diffraction: false)");
     render->add_flag("--analog-stray", o->analogStray,

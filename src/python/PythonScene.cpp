@@ -155,6 +155,10 @@ py::class_<Scene> registerScene(py::module_& m) {
             "diffraction", [](const Scene& s) { return s.render.diffraction; },
             [](Scene& s, bool on) { s.render.diffraction = on; }, "the starburst (render.diffraction)")
         .def_property(
+            "ghost_ringing", [](const Scene& s) { return s.render.ghostRinging; },
+            [](Scene& s, bool on) { s.render.ghostRinging = on; },
+            "the Fresnel ripples on the ghosts' rims (render.ghost_ringing)")
+        .def_property(
             "beams_per_pass", [](const Scene& s) { return s.render.beamsPerPass; },
             [](Scene& s, int beams) {
                 require(beams >= 16 && beams <= 65536, "beams_per_pass: in [16, 65536], got " + std::to_string(beams));

@@ -103,6 +103,7 @@ class Scene:
     photons: int
     seed: int
     diffraction: bool
+    ghost_ringing: bool
     beams_per_pass: int
     ghost_order: int
     def copy(self) -> Scene:

@@ -175,6 +175,21 @@ class FlareModuleTest(unittest.TestCase):
         with self.assertRaises(TypeError):
             flare.preview(self.scene, layers=3)
 
+    def test_the_scene_key_ghost_ringing_reaches_the_preview_as_the_cli_flag_does(self):
+        text = json.loads(small_scene_text())
+        text.setdefault("render", {})["ghost_ringing"] = False
+        scene = flare.parse_scene(text)
+        self.assertFalse(scene.ghost_ringing)
+        self.assertTrue(self.scene.ghost_ringing)
+        images = flare.preview(scene, layers=True)
+        exr = self.scratch_path("preview-no-ringing.exr")
+        run_cli("preview", self.scene_path, "-o", exr, "--layers", "--float-layers", "--quiet", "--no-ghost-ringing")
+        self.assertImagesEqual(images, flare.read_exr(exr))
+        ringing = flare.preview(self.scene, layers=True)
+        self.assertFalse(np.array_equal(ringing["ghost"], images["ghost"]))
+        # The ripples move power across the rims and make none.
+        self.assertAlmostEqual(float(ringing["ghost"].sum() / images["ghost"].sum()), 1.0, delta=1e-3)
+
     def test_the_preview_without_diffraction_equals_the_cli_bit_for_bit(self):
         images = flare.preview(self.scene, layers=True, diffraction=False)
         exr = self.scratch_path("preview-geometric.exr")

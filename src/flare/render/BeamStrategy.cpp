@@ -7,6 +7,7 @@
 
 #include "flare/core/Random.h"
 #include "flare/core/ScrambledSobol.h"
+#include "flare/ghosts/GhostRinging.h"
 #include "flare/optics/SequentialTracer.h"
 
 namespace flare::renderer {
@@ -286,6 +287,13 @@ void traceBeam(const LensSystem& lens, const RenderOptions& options, const Photo
         };
     job.beam = GhostBeam::build(bundleTracer, grid, light.beamLattices[job.slot], light.masks[job.slot], frame, remesh,
                                 vertexFactor);
+    // The rim's Fresnel ripples, at the beam's wavelength, from the path's paraxial defocus; a ghost
+    // only a few Fresnel zones across (near its focus) stays geometric.
+    if (options.ghostRinging && !job.beam.empty()) {
+        const GhostFresnelScale fresnel = ghostFresnelScale(lens, indices, estimate.path);
+        if (fresnel.valid && fresnel.fresnelNumber(wavelengthNm) >= kMinRingingFresnelNumber)
+            job.beam.ring(fresnel.edgeScaleMm(wavelengthNm) / frame.pixelMm);
+    }
 
     // Film units: the pass's image is its accumulated power over photonsPerPass (the film's
     // divisor), and the path's estimate is the mean of its beams.

@@ -213,6 +213,20 @@ GhostBeam GhostBeam::fromTriangles(std::vector<BeamTriangle> triangles, const Fi
     return beam;
 }
 
+void GhostBeam::ring(double edgeScalePx) {
+    std::vector<RimTriangle> rimTriangles(triangles_.size());
+    for (size_t n = 0; n < triangles_.size(); ++n) {
+        const BeamTriangle& t = triangles_[n];
+        for (int k = 0; k < 3; ++k) rimTriangles[n].v[k] = {t.pupilMm[k], t.pixel[k], t.irradiance[k]};
+        rimTriangles[n].small = t.small;
+    }
+    std::call_once(*indexOnce_, [this] { index(); });
+    rim_ = BeamRim::build(rimTriangles, edgeScalePx, frame_.widthPx, frame_.heightPx, [this](const glm::dvec2& pupilMm) {
+        double l1 = 0.0, l2 = 0.0;
+        return locate(pupilMm, &l1, &l2) != nullptr;
+    });
+}
+
 void GhostBeam::bucketByBand() {
     const int bands = std::max(1, (frame_.heightPx + Film::kBandRows - 1) / Film::kBandRows);
     // Rows a triangle may touch: its image ± the jitter (1 px) ± a splat's reach (1 px).
@@ -474,6 +488,7 @@ void GhostBeam::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3
             }
         }
     }
+    rim_.rasterise(band, jitterPx, scale, width, height, rows);
 }
 
 }  // namespace flare

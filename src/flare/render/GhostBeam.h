@@ -40,6 +40,7 @@
 #include "flare/ghosts/GuideMask.h"
 #include "flare/ghosts/PupilMesh.h"
 #include "flare/optics/BundleTracer.h"
+#include "flare/render/BeamRim.h"
 
 namespace flare {
 
@@ -103,6 +104,12 @@ public:
     // map sends it off the sensor, which the film does not see).
     bool twin(const glm::dvec2& pupilMm, BeamTwin* out) const;
 
+    // Rings the image's rim at the Fresnel scale `edgeScalePx` (BeamRim.h; GhostRinging.h gives
+    // the scale from the path's paraxial system): rasterise then adds the rim's excess over the
+    // geometric step. 0: the geometric image (the default).
+    void ring(double edgeScalePx);
+    const BeamRim& rim() const { return rim_; }
+
     // The image's power on the sensor per unit incident power density (mm² of pupil, with the
     // throughput): its irradiance integrated over the sensor rectangle.
     double powerOnSensor() const;
@@ -111,7 +118,8 @@ public:
     // to `rows` (xyz per pixel, row-major from the band's first row, width frame.widthPx): the
     // irradiance, times `scale` (the light's power per mm² of pupil × the spectral weight, and any
     // normalisation), sampled at the pixel centres shifted by `jitterPx` (at most one pixel each
-    // way); small triangles splat at random points drawn from (seed, triangle index).
+    // way); small triangles splat at random points drawn from (seed, triangle index). With ring(),
+    // the rim's ringing is added (sampled at the same points).
     void rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3& scale, std::uint64_t seed,
                    double* rows) const;
 
@@ -122,6 +130,7 @@ private:
 
     FilmFrame frame_;
     std::vector<BeamTriangle> triangles_;
+    BeamRim rim_;
     long tracedRays_ = 0;
     // Point location: a grid of buckets over the pupil bounding box of the triangles, built once
     // by the first twin (under indexOnce_).

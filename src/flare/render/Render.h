@@ -110,6 +110,9 @@ struct RenderOptions {
     int beamReplicates = 2;
     // Beams are meshed on the ghost analysis's cells split to this level (PupilRemeshOptions).
     int beamMeshLevel = 2;
+    // Each beam's rim rings with the Fresnel diffraction of the aperture stop's edge at the beam's
+    // wavelength and the path's defocus (GhostRinging.h, BeamRim.h); false: geometric rims.
+    bool ghostRinging = true;
     // Fault injection for tests only: moves every beam's image by this many pixels (to the
     // right), which biases the render; the tests check that their comparisons catch it.
     double testBeamShiftPx = 0.0;

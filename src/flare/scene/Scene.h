@@ -40,6 +40,7 @@ struct RenderSettings {
     bool diffraction = true;              // the starburst: the direct image convolved with the PSF
     int diffractionWavelengths = 32;      // spectral quadrature of the diffraction PSF
     int beamsPerPass = 1024;              // per directional light (RenderOptions::beamsPerPass)
+    bool ghostRinging = true;             // Fresnel ripples on the ghosts' rims (RenderOptions::ghostRinging)
 };
 
 // Scattering (docs/scene-format.md, "scattering"). Surfaces are numbered from 1 in file order,

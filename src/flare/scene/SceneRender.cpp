@@ -15,6 +15,7 @@ RenderOptions sceneRenderOptions(const Scene& scene, const LensSystem& lens, con
     options.seed = overrides.seed.value_or(scene.render.seed);
     options.maxBounces = overrides.maxBounces.value_or(scene.render.maxBounces);
     options.beamsPerPass = overrides.beamsPerPass.value_or(scene.render.beamsPerPass);
+    options.ghostRinging = scene.render.ghostRinging;
     options.beamReplicates = overrides.beamReplicates;
     options.perGhostLayers = overrides.perGhostLayers;
     options.ghostLayers = overrides.ghostLayers;
