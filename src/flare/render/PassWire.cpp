@@ -51,7 +51,8 @@ public:
         const auto count = get<std::uint64_t>();
         if (count > (message_.size() - at_) / sizeof(T)) fail("an array runs past the message's end");
         std::vector<T> values(count);
-        std::memcpy(values.data(), message_.data() + at_, count * sizeof(T));
+        // An empty vector's data() may be null, which memcpy must not be given even for 0 bytes.
+        if (count > 0) std::memcpy(values.data(), message_.data() + at_, count * sizeof(T));
         at_ += count * sizeof(T);
         return values;
     }
@@ -85,6 +86,8 @@ void writeBeam(std::int64_t index, const BeamJob& job, std::vector<char>& out) {
     put(out, index);
     putArray(out, job.beam.triangles());
     put(out, job.beam.tracedRays());
+    // The rim's Fresnel scale (0: geometric): rank 0 rebuilds the same rim from the same triangles.
+    put(out, job.beam.rim().edgeScalePx());
     put(out, job.jitterPx);
     put(out, job.scale);
     put(out, job.seed);
@@ -114,6 +117,9 @@ long readPassResults(const std::vector<char>& message, const FilmFrame& frame, s
             std::vector<BeamTriangle> triangles = in.getArray<BeamTriangle>();
             const long tracedRays = in.get<long>();
             job.beam = GhostBeam::fromTriangles(std::move(triangles), frame, tracedRays);
+            const double edgeScalePx = in.get<double>();
+            if (!(edgeScalePx >= 0.0 && edgeScalePx < 1e9)) in.fail("a rim's Fresnel scale out of range");
+            if (edgeScalePx > 0.0) job.beam.ring(edgeScalePx);
             job.jitterPx = in.get<glm::dvec2>();
             job.scale = in.get<glm::dvec3>();
             job.seed = in.get<std::uint64_t>();
