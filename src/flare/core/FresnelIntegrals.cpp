@@ -1,5 +1,6 @@
 #include "flare/core/FresnelIntegrals.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -69,6 +70,45 @@ FresnelEdgeExcess::FresnelEdgeExcess() {
     double integral = 0.0;
     for (int i = 0; i < last; ++i) integral += 0.5 * h * (intensity_[i] + intensity_[i + 1]) - (i >= zero ? h : 0.0);
     offset_ = -integral / (2.0 * kReach);
+}
+
+double FresnelEdgeExcess::smearedPeak(double radius) const {
+    // Quadrature at h = 1/32 of w: the excess's fastest ripple within the reach has a period of
+    // 2/K = 1/4, sampled 8 times; the samples sit half a step off the table's, so that the step
+    // (u = 0) falls between two; the semicircle's weights are normalised to sum to one.
+    constexpr double h = 1.0 / 32.0;
+    const int halfWidth = static_cast<int>(std::floor(std::max(radius, 0.0) / h));
+    std::vector<double> weight(2 * halfWidth + 1);
+    double sum = 0.0;
+    for (int j = -halfWidth; j <= halfWidth; ++j) {
+        const double t = halfWidth > 0 ? j * h / radius : 0.0;
+        sum += weight[j + halfWidth] = std::sqrt(std::max(0.0, 1.0 - t * t));
+    }
+    for (double& w : weight) w /= sum;
+    // The excess at (k + ½)·h for k over the reach, zero-padded by the kernel's half width.
+    const int reachSteps = static_cast<int>(std::ceil(kReach / h));
+    std::vector<double> excess(2 * (reachSteps + 2 * halfWidth), 0.0);
+    const int origin = reachSteps + 2 * halfWidth;  // index of k = 0
+    for (int k = -reachSteps; k < reachSteps; ++k) excess[k + origin] = (*this)((k + 0.5) * h);
+    double peak = 0.0;
+    for (int i = -reachSteps - halfWidth; i < reachSteps + halfWidth; ++i) {
+        double value = 0.0;
+        const double* e = excess.data() + (i + origin + halfWidth);
+        for (int j = 0; j <= 2 * halfWidth; ++j) value += weight[j] * e[-j];
+        peak = std::max(peak, std::abs(value));
+    }
+    return peak;
+}
+
+double FresnelEdgeExcess::smearRadiusFor(double level) const {
+    constexpr double kLargest = 16.0;  // smearedPeak(16) ≈ 0.003
+    double below = 0.0, above = kLargest;
+    if (smearedPeak(above) > level) return INFINITY;
+    while (above - below > 1.0 / 64.0) {
+        const double middle = 0.5 * (below + above);
+        (smearedPeak(middle) <= level ? above : below) = middle;
+    }
+    return above;
 }
 
 }  // namespace flare

@@ -42,6 +42,18 @@ public:
     // The constant added (for tests).
     double offset() const { return offset_; }
 
+    // What a light's apparent extent leaves of the ripples. A light of apparent disk radius α
+    // moves a rim by G·α (G: the rim's shift per radian, GhostRinging.h) about its mean place, its
+    // points uniform over a disk whose projection across the edge is the semicircle law; averaged
+    // over them, the excess becomes its convolution with that law. smearedPeak(b) is the largest
+    // |value| of that convolution for a disk of radius b (in units of w): max |excess| = 0.745 at
+    // b = 0, 0.014 at b = 4, falling as about 0.055 / b beyond a few w.
+    double smearedPeak(double radius) const;
+    // The smallest radius b (units of w) at which smearedPeak(b) ≤ level, by bisection on [0, 16]
+    // (smearedPeak falls monotonically past its first w; the tests check it); infinite if
+    // smearedPeak(16) is above the level.
+    double smearRadiusFor(double level) const;
+
 private:
     static constexpr int kSamplesPerUnit = 256;
     FresnelEdgeExcess();

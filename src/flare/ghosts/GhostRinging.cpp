@@ -3,6 +3,8 @@
 #include <cmath>
 #include <vector>
 
+#include "flare/core/FresnelIntegrals.h"
+
 namespace flare {
 
 namespace {
@@ -107,12 +109,28 @@ GhostFresnelScale ghostFresnelScale(const LensSystem& lens, const SpectralIndice
     if (!(std::abs(height) > 0.0)) return out;
     // B: the sensor height of a ray leaving the stop's centre with unit reduced slope (n·u = 1).
     const double b = traceFrom(events, event, 0.0, 1.0 / events[event].nAfter, [](size_t, double) {});
+    // G: a ray from direction θ through the stop's edge (height r at the crossing) enters at
+    // h = (r − s·θ) / r₁ (r₁: the unit marginal ray's height there, s: the height of a ray
+    // entering at the vertex with unit slope) and lands at p·h + q·θ (p, q: their sensor
+    // heights), so the rim moves by q − p·s / r₁ per radian.
+    double fieldHeightAtStop = 0.0;
+    const double fieldSensorHeight = traceFrom(events, 0, 0.0, 1.0, [&](size_t i, double y) {
+        if (i == event) fieldHeightAtStop = y;
+    });
+    out.fieldShiftMmPerRad = fieldSensorHeight - sensorHeight * fieldHeightAtStop / height;
     out.magnification = sensorHeight / height;
     out.distanceMm = std::abs(out.magnification * b);
     out.imageRadiusMm = std::abs(out.magnification) * lens.iris().radiusMm();
     out.stopCrossing = static_cast<int>(widest);
-    out.valid = std::isfinite(out.distanceMm);
+    out.valid = std::isfinite(out.distanceMm) && std::isfinite(out.fieldShiftMmPerRad);
     return out;
+}
+
+bool ghostRipplesVisible(const GhostFresnelScale& scale, double wavelengthNm, double apparentRadiusRad) {
+    if (!scale.valid || !(scale.fresnelNumber(wavelengthNm) >= kMinRingingFresnelNumber)) return false;
+    static const double smearLimit = FresnelEdgeExcess::instance().smearRadiusFor(kMinSmearedRipple);
+    const double smearMm = std::abs(scale.fieldShiftMmPerRad) * apparentRadiusRad;
+    return smearMm < smearLimit * scale.edgeScaleMm(wavelengthNm);
 }
 
 }  // namespace flare

@@ -25,6 +25,10 @@ struct GhostFresnelScale {
     double magnification = 0.0;  // A': stop → sensor, for the beam (negative: the image is inverted)
     double imageRadiusMm = 0.0;  // |A'|·r, the stop's geometric image on the sensor
     int stopCrossing = 0;        // which crossing of the stop (0: the first) limits the beam
+    // G: how far the rim moves on the sensor per radian of the light's direction (the image of
+    // the limiting stop crossing's edge, for rays from a direction θ: G·θ). The direct image's is
+    // the focal length.
+    double fieldShiftMmPerRad = 0.0;
 
     // w = √(λz/2) in mm, and the Fresnel number (A'r)² / (λz), at a vacuum wavelength.
     double edgeScaleMm(double wavelengthNm) const;
@@ -42,5 +46,18 @@ GhostFresnelScale ghostFresnelScale(const LensSystem& lens, const SpectralIndice
 // across (near its focus, or tiny), its rims' ripples overlap and its centre oscillates; the
 // renderer leaves such a ghost's image geometric (docs/rendering.md).
 inline constexpr double kMinRingingFresnelNumber = 50.0;
+
+// A light's apparent extent washes the ripples out: its points (a sun's disk of apparent radius
+// α, a disk light's face) move the rim by up to |G|·α, and averaged over them the ripples keep
+// FresnelEdgeExcess::smearedPeak(|G|·α / w) of the edge's irradiance (1.4 % at 4 w). The
+// renderer rings a beam only where that is at least this much: below it the mean image's
+// ripples are a smaller error than the render's own noise, and leaving them out saves the cost
+// of rasterising every beam's rim (a third of a preview of the sun).
+inline constexpr double kMinSmearedRipple = 0.02;
+
+// Whether a beam of this path at this wavelength rings, for a light of apparent radius
+// `apparentRadiusRad` (0: a point or a collimated light): the Fresnel number is at least
+// kMinRingingFresnelNumber and the smeared ripples at least kMinSmearedRipple.
+bool ghostRipplesVisible(const GhostFresnelScale& scale, double wavelengthNm, double apparentRadiusRad);
 
 }  // namespace flare

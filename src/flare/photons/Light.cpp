@@ -27,4 +27,13 @@ glm::dvec3 LightSpec::travelDirection() const {
     return glm::normalize(-positionMm);
 }
 
+double LightSpec::apparentRadiusRad() const {
+    switch (type) {
+        case Type::Directional: return 0.5 * angularDiameterDeg * std::numbers::pi / 180.0;
+        case Type::Disk: return glm::length(positionMm) > 0.0 ? std::atan(radiusMm / glm::length(positionMm)) : 0.0;
+        case Type::Point: return 0.0;
+    }
+    return 0.0;
+}
+
 }  // namespace flare

@@ -51,6 +51,10 @@ struct LightSpec {
     // normalize(−tan fieldX, −tan fieldY, 1) — a light seen up and to the right sends its rays
     // down and to the left. Point and Disk: from the position towards the first vertex (0, 0, 0).
     glm::dvec3 travelDirection() const;
+    // The radius of the light's apparent disk as the lens sees it, in radians: a directional
+    // light's half angular diameter, a disk's radius over its distance from the first vertex
+    // (atan), 0 for a point.
+    double apparentRadiusRad() const;
     // Disk: the unit normal of the emitting face (equal to travelDirection(): it faces the lens).
     glm::dvec3 diskNormal() const { return travelDirection(); }
 };

@@ -23,6 +23,7 @@ public:
     LightSampler(const LightSpec& light, const LensSystem& lens);
 
     const PupilGrid& grid() const { return grid_; }
+    const LightSpec& light() const { return light_; }
     // Unguided emission covers the disk of radius h about the pupil plane's centre (h ≥
     // grid().halfSizeMm, widened for the light's angular extent) so that no ray that can enter
     // the lens is left out (tested for the shipped lenses and light kinds).

@@ -288,10 +288,11 @@ void traceBeam(const LensSystem& lens, const RenderOptions& options, const Photo
     job.beam = GhostBeam::build(bundleTracer, grid, light.beamLattices[job.slot], light.masks[job.slot], frame, remesh,
                                 vertexFactor);
     // The rim's Fresnel ripples, at the beam's wavelength, from the path's paraxial defocus; a ghost
-    // only a few Fresnel zones across (near its focus) stays geometric.
+    // only a few Fresnel zones across (near its focus) stays geometric, and so does one whose
+    // ripples the light's apparent disk averages out (GhostRinging.h).
     if (options.ghostRinging && !job.beam.empty()) {
         const GhostFresnelScale fresnel = ghostFresnelScale(lens, indices, estimate.path);
-        if (fresnel.valid && fresnel.fresnelNumber(wavelengthNm) >= kMinRingingFresnelNumber)
+        if (ghostRipplesVisible(fresnel, wavelengthNm, light.sampler.light().apparentRadiusRad()))
             job.beam.ring(fresnel.edgeScaleMm(wavelengthNm) / frame.pixelMm);
     }
 

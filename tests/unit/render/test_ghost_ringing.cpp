@@ -3,6 +3,7 @@
 // against an independent Fresnel propagation of that aperture (the Fresnel–Kirchhoff integral of
 // the disk in Hankel form, by quadrature in this file), plus power, the λ → 0 limit and the switch.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -14,6 +15,8 @@
 #include "flare/core/FresnelIntegrals.h"
 #include "flare/ghosts/GhostRinging.h"
 #include "flare/optics/LensFile.h"
+#include "flare/optics/Paraxial.h"
+#include "flare/photons/Light.h"
 #include "flare/render/GhostBeam.h"
 #include "flare/film/Film.h"
 #include "flare/scene/Scene.h"
@@ -76,6 +79,41 @@ TEST(FresnelIntegrals, EdgeExcessIsTheEdgeMinusTheStepAndIntegratesToZero) {
     EXPECT_EQ(excess(-k - 1.0), 0.0);
 }
 
+// The smeared ripples against an independent average: the excess at u₀ + b·x over a sunflower
+// lattice of 65 536 points uniform on the unit disk (its x is the semicircle law), the peak over
+// u₀ on a 1/50 grid. Both sample the same table; the lattice's error on the excess's unit step
+// is about its spacing across the disk, 1/256 of the jump over ~b·256 points of a row: < 1e-3.
+TEST(FresnelIntegrals, SmearedPeakIsTheEdgeAveragedOverADisk) {
+    const FresnelEdgeExcess& excess = FresnelEdgeExcess::instance();
+    const int points = 65536;
+    std::vector<double> x(points);
+    const double golden = kPi * (3.0 - std::sqrt(5.0));
+    for (int i = 0; i < points; ++i) x[i] = std::sqrt((i + 0.5) / points) * std::cos(golden * i);
+    for (double b : {0.5, 2.0, 5.0}) {
+        double peak = 0.0;
+        for (double u0 = -b - 4.0; u0 <= b + 4.0; u0 += 0.02) {
+            double sum = 0.0;
+            for (double xi : x) sum += excess(u0 + b * xi);
+            peak = std::max(peak, std::abs(sum / points));
+        }
+        EXPECT_NEAR(excess.smearedPeak(b), peak, 1e-3 + 0.02 * peak) << b;
+    }
+    // Unsmeared, the peak is the excess's own: |¼ − 1| just inside the edge.
+    EXPECT_NEAR(excess.smearedPeak(0.0), 0.75, 0.01);
+    // Falling past the first w, so that the bisection's answer holds for every larger disk.
+    double previous = excess.smearedPeak(1.0);
+    for (double b = 1.25; b <= 16.0; b += 0.25) {
+        const double peak = excess.smearedPeak(b);
+        EXPECT_LE(peak, previous + 1e-6) << b;
+        previous = peak;
+    }
+    const double limit = excess.smearRadiusFor(kMinSmearedRipple);
+    EXPECT_LE(excess.smearedPeak(limit), kMinSmearedRipple);
+    EXPECT_GT(excess.smearedPeak(limit - 1.0 / 32.0), kMinSmearedRipple);
+    EXPECT_GT(limit, 2.0);
+    EXPECT_LT(limit, 8.0);
+}
+
 // A stop in front of a plane-parallel plate: the ghost between the plate's faces is a collimated
 // beam (A' = 1) whose reduced path from the stop to the sensor is 1 + 3·5/n + 10 mm.
 TEST(GhostFresnelScale, PlateGhostIsTheReducedPathFromTheStop) {
@@ -111,6 +149,74 @@ TEST(GhostFresnelScale, DirectImageInFocusHasNoFresnelDistance) {
     const GhostFresnelScale ghost = ghostFresnelScale(lens, lens.indicesAt(587.6), GhostPath{{2, 1}});
     ASSERT_TRUE(ghost.valid);
     EXPECT_GT(ghost.distanceMm, 1.0);
+}
+
+// How far a rim moves per radian of the light's direction, against 2 × 2 ray-transfer matrices
+// multiplied out here: a singlet, the stop 30 mm behind it and the sensor 20 mm short of its
+// focus (a defocused image of the stop, as a ghost is), G = T₁₂ − T₁₁·F₁₂ / F₁₁ (F: vertex to
+// stop, T: vertex to sensor, on (height, reduced slope)); and for the singlet in focus, G is
+// the focal length (the image of a far point moves f per radian whatever the stop).
+TEST(GhostFresnelScale, RimMovesWithTheLightAsTheRayTransferMatricesSay) {
+    const double r1 = 60.0, r2 = -200.0, thickness = 6.0, stopGap = 30.0, sensorGap = 50.0;
+    const std::string text = "name singlet\nfocal_length_mm 100\nsensor width_mm=40 height_mm=40\nsurfaces\n 60 6 N-BK7 12\n"
+                             " -200 30 air 12\n stop 50 air 5\n";
+    const LensSystem lens = LensSystem::build(parseLensText(text, "singlet.lens"));
+    const SpectralIndices indices = lens.indicesAt(587.6);
+    const double n = indices.n[1];
+    ASSERT_GT(n, 1.4);
+    using M = std::array<double, 4>;  // row-major 2 × 2
+    auto mul = [](const M& a, const M& b) {
+        return M{a[0] * b[0] + a[1] * b[2], a[0] * b[1] + a[1] * b[3], a[2] * b[0] + a[3] * b[2], a[2] * b[1] + a[3] * b[3]};
+    };
+    auto gap = [](double reducedMm) { return M{1.0, reducedMm, 0.0, 1.0}; };
+    auto surface = [](double radiusMm, double nBefore, double nAfter) { return M{1.0, 0.0, -(nAfter - nBefore) / radiusMm, 1.0}; };
+    const M toStop = mul(gap(stopGap), mul(surface(r2, n, 1.0), mul(gap(thickness / n), surface(r1, 1.0, n))));
+    const M toSensor = mul(gap(sensorGap), toStop);
+    const double expected = toSensor[1] - toSensor[0] * toStop[1] / toStop[0];
+    const GhostFresnelScale defocused = ghostFresnelScale(lens, indices, GhostPath{});
+    ASSERT_TRUE(defocused.valid);
+    EXPECT_NEAR(defocused.fieldShiftMmPerRad, expected, 1e-9 * std::abs(expected));
+    EXPECT_GT(defocused.distanceMm, 1.0);
+
+    const std::string focused = "name singlet\nfocal_length_mm 100\nsensor width_mm=10 height_mm=10\nsurfaces\n"
+                                " stop 2 air 10\n 60 6 N-BK7 12\n -200 auto air 12\n";
+    const LensSystem inFocus = LensSystem::build(parseLensText(focused, "singlet.lens"));
+    const GhostFresnelScale direct = ghostFresnelScale(inFocus, inFocus.indicesAt(587.6), GhostPath{});
+    ASSERT_TRUE(direct.valid);
+    const double efl = paraxialEflMm(inFocus, inFocus.indicesAt(587.6));
+    EXPECT_NEAR(direct.fieldShiftMmPerRad, efl, 1e-5 * efl);  // the focus solve's precision
+}
+
+// The renderer's choice: a point light's beams ring; a light whose disk moves the rim by the
+// smear limit's w or more does not, one just inside it does; a ghost near its focus never rings.
+TEST(GhostRinging, RipplesAreDrawnUnlessTheLightsDiskWashesThemOut) {
+    GhostFresnelScale scale;
+    scale.valid = true;
+    scale.distanceMm = 10.0;
+    scale.imageRadiusMm = 5.0;
+    scale.fieldShiftMmPerRad = 40.0;
+    const double wavelengthNm = 550.0, w = scale.edgeScaleMm(wavelengthNm);
+    ASSERT_GT(scale.fresnelNumber(wavelengthNm), kMinRingingFresnelNumber);
+    const double limit = FresnelEdgeExcess::instance().smearRadiusFor(kMinSmearedRipple);
+    EXPECT_TRUE(ghostRipplesVisible(scale, wavelengthNm, 0.0));
+    EXPECT_TRUE(ghostRipplesVisible(scale, wavelengthNm, 0.99 * limit * w / 40.0));
+    EXPECT_FALSE(ghostRipplesVisible(scale, wavelengthNm, 1.01 * limit * w / 40.0));
+    scale.fieldShiftMmPerRad = -40.0;  // an inverted image moves the other way, as far
+    EXPECT_FALSE(ghostRipplesVisible(scale, wavelengthNm, 1.01 * limit * w / 40.0));
+    scale.imageRadiusMm = 0.1;  // N = 1.8
+    EXPECT_FALSE(ghostRipplesVisible(scale, wavelengthNm, 0.0));
+    // The sun: 0.53° across.
+    LightSpec sun;
+    sun.angularDiameterDeg = 0.53;
+    EXPECT_NEAR(sun.apparentRadiusRad(), 0.265 * kPi / 180.0, 1e-12);
+    LightSpec disk;
+    disk.type = LightSpec::Type::Disk;
+    disk.radiusMm = 100.0;
+    disk.positionMm = {0.0, 0.0, -10000.0};
+    EXPECT_NEAR(disk.apparentRadiusRad(), std::atan(0.01), 1e-12);
+    LightSpec point;
+    point.type = LightSpec::Type::Point;
+    EXPECT_EQ(point.apparentRadiusRad(), 0.0);
 }
 
 // A disk of radius `radiusPx` about `centre`, of unit irradiance, as a fan of `sides` triangles
