@@ -26,7 +26,7 @@ SOURCE_DIR = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__f
 CLI = os.environ.get("FLARE_CLI", os.path.join(SOURCE_DIR, "build", "src", "flare"))
 
 WIDTH_PX, HEIGHT_PX = 96, 64
-PHOTONS_PER_PASS = 65_536  # RenderOptions: 64 batches of 1024
+PHOTONS_PER_PASS = 262_144  # a guided render's pass: kGuidedBatchesPerPass (SceneRender.h) batches of 1024
 
 
 def run_cli(*arguments):

@@ -15,6 +15,9 @@ RenderOptions sceneRenderOptions(const Scene& scene, const LensSystem& lens, con
     options.seed = overrides.seed.value_or(scene.render.seed);
     options.maxBounces = overrides.maxBounces.value_or(scene.render.maxBounces);
     options.beamsPerPass = overrides.beamsPerPass.value_or(scene.render.beamsPerPass);
+    // A guided pass's beams cost far more than its photons, and the layers left to photons
+    // (scatter, higher) are what a target waits for: guided passes trace four times the photons.
+    if (options.mode == RenderOptions::Mode::Guided) options.batchesPerPass = kGuidedBatchesPerPass;
     options.ghostRinging = scene.render.ghostRinging;
     options.beamReplicates = overrides.beamReplicates;
     options.perGhostLayers = overrides.perGhostLayers;

@@ -38,6 +38,14 @@ struct SceneRenderOverrides {
     std::optional<double> interiorAlbedo;
 };
 
+// Photon batches (RenderOptions::batchPhotons each) per pass of a guided render. On the default
+// scene a pass's 1024 beams took two thirds of the CPU and its 65 536 photons under 2 %, while the
+// 2 % target waited for the photons' `scatter` layer: 262 144 photons per pass reach the target in
+// 12 passes instead of 26, for 46 % less CPU; on the street lights (ghost-limited) the same passes
+// cost 1 % more and halve the flare's error (docs/BENCHMARKS.md, "fourth part"). The photon
+// modes keep RenderOptions' 64: their passes hold photons only.
+inline constexpr int kGuidedBatchesPerPass = 256;
+
 // The render options of the scene's lights on `lens` (built at the scene's state by
 // buildSceneLens), its scattering applied (applySceneScattering: InputError for a scattering block
 // the lens cannot take).

@@ -49,8 +49,9 @@ nlohmann::json reportWithoutTimes(const std::filesystem::path& path) {
     return j;
 }
 
-// Four passes of the tiny scene: 4 × 65 536 photons and the beams, a second or so per render.
-const char* kRender = " --photons 262144 --target-error 0 --beams-per-pass 128 --quiet";
+// Four passes of the tiny scene: 4 × 262 144 photons (a guided pass, kGuidedBatchesPerPass) and
+// the beams, a second or so per render.
+const char* kRender = " --photons 1048576 --target-error 0 --beams-per-pass 128 --quiet";
 
 TEST(DistributedCli, OneTwoAndThreeRanksGiveTheImageAndReportOfOneProcess) {
     const auto dir = test::freshDir("flare_distributed_cli", "ranks");
@@ -86,13 +87,13 @@ TEST(DistributedCli, ACheckpointOfTwoRanksResumesWithOneToTheUninterruptedImage)
     // Two passes on two ranks, then two more on one from their checkpoint.
     const std::string checkpoint = (dir / "resumed.ckpt").string();
     test::CliRun r = shell(mpirun(2) + "render " + scene + " -o " + (dir / "half.exr").string() +
-                           " --photons 131072 --checkpoint " + checkpoint + common);
+                           " --photons 524288 --checkpoint " + checkpoint + common);
     ASSERT_EQ(r.exitCode, 0) << r.out;
     ASSERT_TRUE(std::filesystem::exists(checkpoint));
-    r = test::runCli("render " + scene + " -o " + (dir / "resumed.exr").string() + " --photons 262144 --checkpoint " +
+    r = test::runCli("render " + scene + " -o " + (dir / "resumed.exr").string() + " --photons 1048576 --checkpoint " +
                      checkpoint + common);
     ASSERT_EQ(r.exitCode, 0) << r.out;
-    r = test::runCli("render " + scene + " -o " + (dir / "whole.exr").string() + " --photons 262144" + common);
+    r = test::runCli("render " + scene + " -o " + (dir / "whole.exr").string() + " --photons 1048576" + common);
     ASSERT_EQ(r.exitCode, 0) << r.out;
     EXPECT_TRUE(bytes(dir / "resumed.exr") == bytes(dir / "whole.exr"));
     // ... and it differs from the half render (the test can fail).

@@ -69,14 +69,15 @@ TEST(RenderCli, WritesLayersVarianceAndAReport) {
 TEST(RenderCli, CheckpointResumesAndContinuesAccumulating) {
     const std::string exr = tempPath("c.exr"), checkpoint = tempPath("c.checkpoint"), report = tempPath("c.json");
     const std::string scene = smallScene();
-    ASSERT_EQ(run("render " + scene + " -o " + exr + " --photons 131072 --quiet --checkpoint " + checkpoint).exitCode, 0);
+    // Two guided passes of 262 144 photons (kGuidedBatchesPerPass), then two more.
+    ASSERT_EQ(run("render " + scene + " -o " + exr + " --photons 524288 --quiet --checkpoint " + checkpoint).exitCode, 0);
     ASSERT_TRUE(std::filesystem::exists(checkpoint));
-    const CliRun more = run("render " + scene + " -o " + exr + " --photons 262144 --checkpoint " + checkpoint +
+    const CliRun more = run("render " + scene + " -o " + exr + " --photons 1048576 --checkpoint " + checkpoint +
                             " --report " + report);
     ASSERT_EQ(more.exitCode, 0) << more.out;
     EXPECT_NE(more.out.find("resumed"), std::string::npos) << more.out;
     std::ifstream in(report);
-    EXPECT_EQ(nlohmann::json::parse(in)["photons"].get<long>(), 262144);
+    EXPECT_EQ(nlohmann::json::parse(in)["photons"].get<long>(), 1048576);
 }
 
 TEST(RenderCli, BadInputExitsWithCodeTwoAndWritesNothing) {
