@@ -31,6 +31,7 @@
 #include "flare/optics/AgfCatalog.h"
 #include "flare/optics/LensFile.h"
 #include "flare/optics/Paraxial.h"
+#include "flare/optics/PbrtLensFile.h"
 #include "flare/optics/SequentialTracer.h"
 #include "flare/optics/ZemaxFile.h"
 #include "flare/photons/PhotonTracer.h"

@@ -1,5 +1,5 @@
 // intersect() in SIMD lanes: the conic's quadratic and an asphere's Newton iteration, shared by
-// the packet kernels (PacketTracer.cpp, whose steps hold one surface, and PhotonPacket.cpp, whose
+// the packet kernels (PacketKernel.cpp, whose steps hold one surface, and PhotonPacket.cpp, whose
 // lanes each meet their own). Included by those files inside Highway's per-target compilation, so
 // it is compiled once per instruction set with their flags (no fused multiply-adds): a Highway
 // "-inl.h" header, whose include guard toggles with HWY_TARGET_TOGGLE.

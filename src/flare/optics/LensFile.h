@@ -1,6 +1,6 @@
 // Reading lens prescriptions: the native `.lens` format (docs/lens-format.md), pbrt's four-column
-// `.dat` files and Zemax OpticStudio `.zmx` files (ZemaxFile.h). Every problem raises InputError
-// naming the file and line.
+// `.dat` files (PbrtLensFile.h) and Zemax OpticStudio `.zmx` files (ZemaxFile.h). Every problem
+// raises InputError naming the file and line.
 #pragma once
 
 #include <string>
@@ -23,8 +23,8 @@ LensPrescription loadLens(const std::string& pathOrName);
 std::string unknownLensProblem(const std::string& name);
 
 // Parses text already in memory; `fileName` is used in error messages and as the source file.
+// (pbrt's and Zemax's text: parsePbrtLensText in PbrtLensFile.h, parseZemaxText in ZemaxFile.h.)
 LensPrescription parseLensText(std::string_view text, const std::string& fileName);
-LensPrescription parsePbrtLensText(std::string_view text, const std::string& fileName);
 
 // One header line of the native format (e.g. "iris blades=7 rotation_deg=10", "coating ar1 single
 // n=1.38 quarter_wave_nm=550") applied to `p`, checked as in a .lens file; errors name `fileName`

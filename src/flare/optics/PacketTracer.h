@@ -13,67 +13,21 @@
 // InterfaceTables are interpolated in the lanes with the same operations as the tables' own
 // lookup; the exact responses (no tables, or a cosine near total internal reflection) are
 // evaluated one lane at a time.
+//
+// The vector step itself, compiled per instruction set, is PacketKernel.h's; this class builds the
+// steps from the path, runs them batch after batch, does what they leave to the scalar code and
+// moves the going rays together as others end.
 #pragma once
 
-#include <cstdint>
 #include <span>
 #include <vector>
 
 #include <glm/vec2.hpp>
 
 #include "flare/optics/BundleTracer.h"
+#include "flare/optics/PacketKernel.h"
 
 namespace flare {
-
-namespace detail {
-
-struct PacketLanes;
-
-// One event of the path with the constants its vector kernel needs (internal to PacketTracer).
-struct PacketStep {
-    enum class Kind : std::uint8_t {
-        Conic,      // refraction or reflection at a sphere, conic or plane
-        Stop,       // the iris plane
-        Sensor,     // the sensor plane: end there, reflect, or a wrong exit
-        Scalar,     // BundleTracer's step for every ray (an aspheric iris plane)
-        WrongExit,  // every ray ends here
-    };
-    Kind kind = Kind::Conic;
-    bool reflect = false;        // Conic: mirror reflection; Sensor: reflect off the sensor
-    bool wrongExit = false;      // Sensor: rays reaching it end as WrongExit
-    bool weighted = false;       // Conic: multiply by the Fresnel/coating factor
-    // Conic, rays at wavelengths of their own: a factor applies (the path has them); each lane
-    // then decides as tracePath does (a refraction between equal indices has none).
-    bool laneWeighted = false;
-    enum class Normal : std::uint8_t { Sphere, Plane, Conic } normal = Normal::Sphere;  // Conic
-    bool sensorWeighted = false; // Sensor reflection: multiply by the sensor's reflectance
-    bool roundIris = true;       // Stop
-    int surface = 0, direction = 1;  // as BundleTracer's step (for the Fresnel/coating factor)
-    double vertexZMm = 0.0, curvaturePerMm = 0.0, conicFactor = 1.0, radiusMm = 0.0;
-    double centreZMm = 0.0;       // a sphere's centre of curvature
-    // An asphere (Normal::Conic with polynomial terms): intersect()'s Newton iteration in the
-    // lanes; its A4..A16 and their slope coefficients (i + 2) A_{2i+4}.
-    bool polynomial = false;
-    double asphere[kAsphereTerms] = {}, slopeCoefficient[kAsphereTerms] = {};
-    double aperture2Mm2 = 0.0, inverseAperture2PerMm2 = 0.0;  // the clear aperture's semi-diameter squared
-    double eta = 1.0;             // n1 / n2
-    double irisInner2Mm2 = 0.0;   // Stop: squared radius within which every point passes
-    double irisOuter2Mm2 = 0.0;   // Stop: beyond it none passes (between: the scalar test)
-    // Stop, a polygonal iris of at most kLaneBlades blades: Iris::margin in the lanes (more blades
-    // take the scalar step when margins are asked).
-    static constexpr int kLaneBlades = 16;
-    int blades = 0;
-    double edgeNormalX[kLaneBlades] = {}, edgeNormalY[kLaneBlades] = {};
-    double apothemMm = 0.0, arcCentreMm = 0.0, arcRadiusMm = 0.0;
-    double sensorZMm = 0.0, halfWidthMm = 0.0, halfHeightMm = 0.0, sensorReflectance = 1.0;
-    // Conic, weighted, with InterfaceTables: the factor's table (values and slopes at cos = i /
-    // intervals), looked up in the lanes; cosines in [exactFrom, exactTo] get the exact response.
-    const double* tableValue = nullptr;
-    const double* tableSlope = nullptr;
-    double tableIntervals = 0.0, tableExactFrom = 2.0, tableExactTo = -1.0;
-};
-
-}  // namespace detail
 
 class PacketTracer {
 public:

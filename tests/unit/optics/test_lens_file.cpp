@@ -7,6 +7,7 @@
 #include "TestUtil.h"
 #include "flare/core/Error.h"
 #include "flare/optics/LensFile.h"
+#include "flare/optics/PbrtLensFile.h"
 
 namespace flare {
 namespace {
