@@ -18,6 +18,7 @@
 #include "flare/film/ImageIO.h"
 #include "flare/optics/LensFile.h"
 #include "flare/scene/Plate.h"
+#include "flare/scene/PlateDisplay.h"
 #include "flare/scene/PlateLights.h"
 #include "flare/scene/PlateSources.h"
 #include "flare/scene/Scene.h"
@@ -36,6 +37,7 @@ struct CompositeOptions {
     std::optional<double> focusMm, fNumber, sensorWidthMm;
     std::string exr, png, lightsJson, extraLights;
     std::string colourSpace;
+    DisplayView displayView;  // --display, --view: the PNG through an OpenColorIO view
     std::string frames;  // "FIRST-LAST": a sequence
     std::optional<double> threshold;
     int maxLights = 64;
@@ -300,7 +302,11 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
             const glm::dvec3 v = toRec709 * glm::dvec3(composite.rgb[i], composite.rgb[i + 1], composite.rgb[i + 2]);
             for (int k = 0; k < 3; ++k) rec709.rgb[i + k] = static_cast<float>(v[k]);
         }
-        writePng(outputs, o.png, rec709, std::exp2(o.exposureStops.value_or(0.0)));
+        const double exposure = std::exp2(o.exposureStops.value_or(0.0));
+        if (o.displayView.display.empty())
+            writePng(outputs, o.png, rec709, exposure);
+        else  // the config's view is the tone curve: the plate's exposure times --exposure, no curve of ours
+            writeDisplayPng(outputs, o.png, applyDisplayView(composite, plate.space, o.displayView, exposure));
     }
     if (!o.lightsJson.empty()) outputs.write(o.lightsJson, jsonText(sceneToJson(scene)) + "\n");
     outputs.commit();
@@ -377,6 +383,11 @@ void addCompositeCommand(CLI::App& app) {
     c->add_option("-o,--output", o->exr, "EXR to write: composite, plate, flare and its layers")->required();
     c->add_option("--png", o->png, "also write the composite as a tone-mapped PNG");
     addExposureOption(c, o->exposureStops);
+    auto* display = c->add_option("--display", o->displayView.display,
+                                  "show the PNG through this display of the $OCIO config (its view's tone curve in place of "
+                                  "flare's)");
+    c->add_option("--view", o->displayView.view, "the display's view (default: the config's default view of the display)")
+        ->needs(display);
     c->add_option("--colorspace", o->colourSpace,
                   "the plate's colour space: ACEScg, ACES2065-1, linear Rec.709, or a name in the $OCIO config "
                   "(default: the file's chromaticities)");
@@ -411,6 +422,8 @@ void addCompositeCommand(CLI::App& app) {
     c->add_flag("--quiet", o->quiet, "no statistics on stderr");
     c->callback([o, c] {
         o->pngGiven = c->count("--png") > 0;
+        if (!o->displayView.display.empty() && !o->pngGiven)
+            throw InputError("--display", 0, "a display and view shape the PNG: give --png too");
         resolveLayersOption(c, o->layers, o->plate);
         run(*o);
     });

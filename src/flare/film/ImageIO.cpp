@@ -443,16 +443,10 @@ glm::dvec3 displayEncode(const glm::dvec3& linearRgb, double exposure) {
             srgbOetf(std::clamp(rgb.b, 0.0, 1.0))};
 }
 
-void writePng(OutputFiles& outputs, const std::string& path, const ImageLayer& image, double exposure) {
-    checkLayer(image);
-    if (!std::isfinite(exposure) || exposure < 0.0)
-        throw std::invalid_argument("writePng: exposure must be finite and non-negative");
-    std::vector<std::uint8_t> pixels(image.rgb.size());
-    for (size_t i = 0; i < image.rgb.size(); i += 3) {
-        const glm::dvec3 v = displayEncode({image.rgb[i], image.rgb[i + 1], image.rgb[i + 2]}, exposure);
-        for (int c = 0; c < 3; ++c)
-            pixels[i + c] = static_cast<std::uint8_t>(std::lround(255.0 * v[c]));
-    }
+namespace {
+
+void writePngPixels(OutputFiles& outputs, const std::string& path, const ImageLayer& image,
+                    const std::vector<std::uint8_t>& pixels) {
     // libpng's simplified API reports errors in image.message instead of longjmp-ing through us.
     png_image png{};
     png.version = PNG_IMAGE_VERSION;
@@ -465,6 +459,31 @@ void writePng(OutputFiles& outputs, const std::string& path, const ImageLayer& i
         throw std::runtime_error("cannot write " + path + ": " + message);
     }
     png_image_free(&png);
+}
+
+}  // namespace
+
+void writePng(OutputFiles& outputs, const std::string& path, const ImageLayer& image, double exposure) {
+    checkLayer(image);
+    if (!std::isfinite(exposure) || exposure < 0.0)
+        throw std::invalid_argument("writePng: exposure must be finite and non-negative");
+    std::vector<std::uint8_t> pixels(image.rgb.size());
+    for (size_t i = 0; i < image.rgb.size(); i += 3) {
+        const glm::dvec3 v = displayEncode({image.rgb[i], image.rgb[i + 1], image.rgb[i + 2]}, exposure);
+        for (int c = 0; c < 3; ++c)
+            pixels[i + c] = static_cast<std::uint8_t>(std::lround(255.0 * v[c]));
+    }
+    writePngPixels(outputs, path, image, pixels);
+}
+
+void writeDisplayPng(OutputFiles& outputs, const std::string& path, const ImageLayer& displayRgb) {
+    checkLayer(displayRgb);
+    std::vector<std::uint8_t> pixels(displayRgb.rgb.size());
+    for (size_t i = 0; i < pixels.size(); ++i) {
+        const float v = displayRgb.rgb[i];
+        pixels[i] = static_cast<std::uint8_t>(std::lround(255.0 * (std::isfinite(v) ? std::clamp(v, 0.0f, 1.0f) : 0.0f)));
+    }
+    writePngPixels(outputs, path, displayRgb, pixels);
 }
 
 void writePng(const std::string& path, const ImageLayer& image, double exposure) {

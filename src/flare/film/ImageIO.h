@@ -134,6 +134,9 @@ glm::dvec3 displayEncode(const glm::dvec3& linearRgb, double exposure);
 // 8-bit sRGB PNG of displayEncode(pixel, exposure); all-or-nothing like writeExr, same errors.
 void writePng(const std::string& path, const ImageLayer& image, double exposure);
 void writePng(OutputFiles& outputs, const std::string& path, const ImageLayer& image, double exposure);
+// 8-bit PNG of display-referred values as they are (an OpenColorIO view's output), each clamped to
+// [0, 1] (a non-finite value is written as 0); no tone curve, no encoding.
+void writeDisplayPng(OutputFiles& outputs, const std::string& path, const ImageLayer& displayRgb);
 
 // An exposure for the PNG preview that shows the ghosts. See ImageIO.cpp for the choice.
 double autoExposure(const ImageLayer& image);

@@ -1,6 +1,7 @@
 // `flare composite` run as a subprocess: a plate's bright pixels become lights at their field
 // angles with their power, the layers add up, colour spaces round-trip, the lights it writes
 // render its flare, and bad plates are refused with nothing written.
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -18,6 +19,7 @@
 #include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/ImfStandardAttributes.h>
 #include <gtest/gtest.h>
+#include <png.h>
 #include <glm/matrix.hpp>
 #include <nlohmann/json.hpp>
 
@@ -273,6 +275,71 @@ TEST(CompositeCli, ColourSpacesFromAnOcioConfig) {
     const test::CliRun u = test::runCli("composite " + plate + " " + kLens + " -o " + refused + " --colorspace studio_cgg");
     EXPECT_EQ(u.exitCode, 2) << u.out;
     EXPECT_NE(u.out.find("did you mean 'studio_cg'"), std::string::npos) << u.out;
+    ::unsetenv("OCIO");
+}
+
+// --display and --view: the PNG through a config's view, here a matrix the test can apply (half the
+// linear Rec.709 value, clamped), against the composite the EXR holds times the exposure; an
+// unknown display or view, a display without $OCIO or without --png, exit 2 naming it.
+TEST(CompositeCli, ThePngThroughAnOcioDisplayAndView) {
+    std::string fromXyz;  // XYZ → linear Rec.709, halved (row-major 4 × 4)
+    const glm::dmat3 m = xyzToLinearSrgbMatrix();
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) fromXyz += std::to_string(0.5 * m[c][r]) + ", ";
+        fromXyz += "0, ";
+    }
+    fromXyz += "0, 0, 0, 1";
+    const std::string config = path("display.ocio");
+    std::ofstream(config) << "ocio_profile_version: 2\n"
+                             "roles:\n  default: xyz\n  scene_linear: xyz\n  cie_xyz_d65_interchange: xyz\n"
+                             "file_rules:\n  - !<Rule> {name: Default, colorspace: default}\n"
+                             "displays:\n  studio:\n    - !<View> {name: half, colorspace: half709}\n"
+                             "    - !<View> {name: raw, colorspace: xyz}\n"
+                             "colorspaces:\n"
+                             "  - !<ColorSpace>\n    name: xyz\n"
+                             "  - !<ColorSpace>\n    name: half709\n    from_scene_reference: !<MatrixTransform> {matrix: [" +
+                                 fromXyz + "]}\n";
+    const std::string plate = writePlate("display.exr", {{100, 80, glm::dvec3(900.0, 500.0, 200.0)}}, nullptr,
+                                         glm::dvec3(0.2, 0.5, 0.9));
+    const std::string out = path("display-out.exr"), png = path("display-out.png");
+    const std::string common = " " + kLens + " -o " + out + " --png " + png + " --quiet";
+    ::unsetenv("OCIO");
+    test::CliRun r = test::runCli("composite " + plate + common + " --display studio");
+    EXPECT_EQ(r.exitCode, 2) << r.out;
+    EXPECT_NE(r.out.find("$OCIO"), std::string::npos) << r.out;
+    EXPECT_FALSE(std::filesystem::exists(out));
+    ::setenv("OCIO", config.c_str(), 1);
+    r = test::runCli("composite " + plate + common + " --display studio --view half --exposure 1");
+    ASSERT_EQ(r.exitCode, 0) << r.out;
+    png_image image{};
+    image.version = PNG_IMAGE_VERSION;
+    ASSERT_TRUE(png_image_begin_read_from_file(&image, png.c_str()));
+    image.format = PNG_FORMAT_RGB;
+    std::vector<std::uint8_t> pixels(PNG_IMAGE_SIZE(image));
+    ASSERT_TRUE(png_image_finish_read(&image, nullptr, pixels.data(), 0, nullptr));
+    const ImageLayer composite = layer(out, "");
+    ASSERT_EQ(pixels.size(), composite.rgb.size());
+    int wrong = 0, lit = 0;
+    for (size_t i = 0; i < pixels.size(); ++i) {
+        // The plate has no chromaticities: linear Rec.709. Float rounding in OpenColorIO: ±1 step.
+        const double want = 255.0 * std::clamp(0.5 * 2.0 * composite.rgb[i], 0.0, 1.0);
+        if (std::abs(pixels[i] - want) > 1.0) ++wrong;
+        if (pixels[i] > 0 && pixels[i] < 255) ++lit;
+    }
+    EXPECT_EQ(wrong, 0);
+    EXPECT_GT(lit, static_cast<int>(pixels.size() / 2));  // the background shows, unclipped
+    // The default view is the display's first.
+    r = test::runCli("composite " + plate + common + " --display studio --exposure 1");
+    ASSERT_EQ(r.exitCode, 0) << r.out;
+    r = test::runCli("composite " + plate + common + " --display studo");
+    EXPECT_EQ(r.exitCode, 2) << r.out;
+    EXPECT_NE(r.out.find("studio: half, raw"), std::string::npos) << r.out;
+    r = test::runCli("composite " + plate + common + " --display studio --view full");
+    EXPECT_EQ(r.exitCode, 2) << r.out;
+    EXPECT_NE(r.out.find("no view 'full'"), std::string::npos) << r.out;
+    r = test::runCli("composite " + plate + " " + kLens + " -o " + out + " --display studio --quiet");
+    EXPECT_EQ(r.exitCode, 2) << r.out;
+    EXPECT_NE(r.out.find("--png"), std::string::npos) << r.out;
     ::unsetenv("OCIO");
 }
 
