@@ -35,8 +35,6 @@ std::string displaysOf(const OCIO::ConstConfigRcPtr& config) {
 
 }  // namespace
 
-std::string describeDisplays() { return displaysOf(configFromEnv("--display")); }
-
 ImageLayer applyDisplayView(const ImageLayer& image, const PlateColourSpace& space, const DisplayView& displayView,
                             double exposure, const std::string& optionName) {
     const OCIO::ConstConfigRcPtr config = configFromEnv(optionName);

@@ -17,9 +17,6 @@ struct DisplayView {
     std::string display, view;  // an empty view: the config's default view of the display
 };
 
-// The display's and its views' names in the $OCIO config ("display: view, view; ..."), for messages.
-std::string describeDisplays();
-
 // `image` (plate RGB in `space`) times `exposure`, through the $OCIO config's display and view:
 // display-referred RGB, as the view's transform leaves it (a PNG stores it clamped to [0, 1]).
 // InputError(optionName, 0, ...) without a config, for a display or view it does not have (listing
