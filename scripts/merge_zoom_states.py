@@ -77,6 +77,46 @@ def _same_radii(a, b):
     return len(a) == len(b) and all(abs(plane(x) - plane(y)) <= 0.0101 for x, y in zip(a, b))
 
 
+# A cemented resin layer (the thin aspheric layer of a hybrid element) is at most this thick; some
+# transcriptions (LensVisualizer) leave it out, folding it into the glass it sits on.
+MAX_LAYER_MM = 0.02
+
+
+def _layers(rows):
+    """The rows that are the back of a thin cemented layer: the same radius as the row before, which
+    is glass at most MAX_LAYER_MM thick."""
+    out = set()
+    for i in range(1, len(rows)):
+        prev, cur = rows[i - 1][1], rows[i][1]
+        if "stop" in (prev[0], cur[0]) or "inf" in (prev[0], cur[0]) or prev[2] == "air":
+            continue
+        try:
+            thick = float(prev[1])
+        except ValueError:
+            continue
+        if thick <= MAX_LAYER_MM and abs(float(prev[0]) - float(cur[0])) <= 0.0101:
+            out.add(i)
+    return out
+
+
+def _radii(rows, drop_layers=False):
+    """The radii of the surface rows (stop excluded; a plane is 0), to 0.01 mm; without the backs of
+    thin cemented layers when asked."""
+    skip = _layers(rows) if drop_layers else set()
+    return tuple(round(0.0 if t[0] == "inf" else float(t[0]), 2)
+                 for i, (_, t) in enumerate(rows) if t[0] != "stop" and i not in skip)
+
+
+def _matches(rows, key):
+    """Whether a file's rows match a table's radii: as they are, with a plate more at the end, or
+    without the backs of thin cemented layers the table leaves out (and maybe a plate more)."""
+    for drop in (False, True):
+        radii = _radii(rows, drop)
+        if _same_radii(radii, key) or _same_radii_but_plate(radii, key):
+            return True
+    return False
+
+
 def _same_radii_but_plate(a, b):
     """The file's radii are the table's and two plane surfaces more at the end: a plane-parallel plate
     (a filter or the sensor's cover glass) the table leaves out."""
@@ -143,20 +183,24 @@ def _space_gaps(rows, table):
     n = len(table["focal_lengths"])
 
     def spaces(kinds):
-        """[(surface's row, [rows of its air space])] from row kinds (True: the stop)."""
+        """[[rows from a surface to the next]] from row kinds ("surface", "stop", or "layer": the
+        back of a thin cemented layer the table leaves out, part of the glass before it)."""
         out = []
-        for i, is_stop in enumerate(kinds):
-            if is_stop:
+        for i, kind in enumerate(kinds):
+            if kind != "surface":
                 continue
             space = [i]
-            if i + 1 < len(kinds) and kinds[i + 1]:
-                space.append(i + 1)
+            while space[-1] + 1 < len(kinds) and kinds[space[-1] + 1] != "surface":
+                space.append(space[-1] + 1)
             out.append(space)
         return out
 
-    file_spaces = spaces([t[0] == "stop" for _, t in rows])
+    layers = _layers(rows) if not _same_radii(_radii(rows), table["key"]) and \
+        not _same_radii_but_plate(_radii(rows), table["key"]) else set()
+    file_spaces = spaces(["stop" if t[0] == "stop" else "layer" if i in layers else "surface"
+                          for i, (_, t) in enumerate(rows)])
     labels = table["labels"]
-    table_spaces = spaces([lb.upper() in ("STO", "STOP") for lb in labels])
+    table_spaces = spaces(["stop" if lb.upper() in ("STO", "STOP") else "surface" for lb in labels])
     m = len(table_spaces)
     plate = len(file_spaces) == m + 2
     if len(file_spaces) != m and not plate:
@@ -184,6 +228,8 @@ def _space_gaps(rows, table):
         if len(fs) == 1:
             gaps[fs[0]] = [round(t, 6) for t in total]
             continue
+        if len(fs) != 2:
+            return None
         before, behind = (float(rows[r][1][1]) for r in fs)
         if len(ts) != 2 or abs(table_value(ts[0], held[0]) - before) > GAP_TOLERANCE_MM:
             resplit.append(j + 1)
@@ -228,11 +274,21 @@ F_NUMBER_OVERRIDES = {
 }
 
 
+# Variable-aperture zooms whose table's later f-numbers are LensVisualizer's fixed-stop model, with
+# the patent's own F-numbers in neither source: not merged (their f-number per position would not be
+# the patent's).
+MODELLED_F_NUMBERS = {
+    "fujifilm-fujinon-7.1-28.4mm-f2.0-2.8-super-ebc-x10": "JP patent Table 3's rounded f-numbers are replaced by "
+                                                          "LensVisualizer's model (nominalFno 2.064 / 2.357 / 2.875)",
+    "tamron-14-150mm-f3.5-5.8-di-iii": "US 2014/0347522 Example 3: LensVisualizer's nominalFno (3.65 / 5.388 / 5.905) "
+                                       "is its single fixed-stop fit to the patent's F-numbers, not the patent's",
+}
+
+
 def merged_text(text, table, f_numbers, commit, patent=None, f_number_note=None):
     """The file with the table's states as zoom positions, or None when the table does not match."""
     lines, rows = _rows(text)
-    radii = tuple(round(0.0 if t[0] == "inf" else float(t[0]), 2) for _, t in rows if t[0] != "stop")
-    if not _same_radii(radii, table["key"]) and not _same_radii_but_plate(radii, table["key"]):
+    if not _matches(rows, table["key"]):
         return None
     n = len(table["focal_lengths"])
     names = ["wide", "tele"] if n == 2 else ["wide"] + (["mid"] if n == 3 else [f"mid{i}" for i in range(1, n - 1)]) + ["tele"]
@@ -381,15 +437,15 @@ def apply(folder, git_dir, flare, skip=()):
     staging = tempfile.mkdtemp(prefix="flare-zoom-merge-")
     candidates = []
     for entry in index["lenses"]:
-        if "zoom-first-position-only" not in entry["tags"] or entry["id"] in skip:
+        if "zoom-first-position-only" not in entry["tags"] or entry["id"] in skip or entry["id"] in MODELLED_F_NUMBERS:
             continue
         path = os.path.join(folder, entry["file"])
         with open(path, encoding="utf-8") as f:
             text = f.read()
         _, rows = _rows(text)
-        radii = tuple(round(0.0 if t[0] == "inf" else float(t[0]), 2) for _, t in rows if t[0] != "stop")
+        radii = _radii(rows)
         table = (tables.get(radii) or next((t for k, t in tables.items() if _same_radii(radii, k)), None) or
-                 next((t for k, t in tables.items() if _same_radii_but_plate(radii, k)), None))
+                 next((t for k, t in tables.items() if _matches(rows, k)), None))
         if not table or len(table["focal_lengths"]) > MAX_STATES:
             continue
         f_numbers = _f_numbers(git_dir, table["file"], len(table["focal_lengths"]))
