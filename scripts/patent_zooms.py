@@ -77,6 +77,33 @@ SPECS = [
                "as base spheres (the patent's aspheric coefficients are not modelled), so its clear radius is cut "
                "below the f/4.1 beam",
     },
+    {
+        "lv": "src/lens-data/panasonic/PanasonicLumixGVario714mmf4.data.ts",
+        "id": "panasonic-7-14mm-f4-us-2010-0194930-ex1",
+        "folder": "panasonic",
+        "maker": "Panasonic",
+        "model": "LUMIX G VARIO 7-14mm F4.0 ASPH. (Example 1 of its patent)",
+        "patent": "US 2010/0194930",
+        "example": 1,
+        "f_numbers": [4.0, 4.0, 4.0],
+        "f_number_source": "f/4 at every state, the constant aperture LensVisualizer gives (nominalFno 4; the patent's "
+                           "own F-numbers are not quoted there)",
+        "sensor_mm": (17.3, 13.0),
+        "format": "Four Thirds",
+    },
+    {
+        "lv": "src/lens-data/pentax/HDPentaxDA6452845mmF45EDAWSR.data.ts",
+        "id": "pentax-hd-pentax-da645-28-45mm-f4.5-ed-aw-sr",
+        "folder": "pentax",
+        "maker": "Pentax",
+        "model": "HD PENTAX-DA645 28-45mm F4.5 ED AW SR",
+        "patent": "JP 2015-087681 A",
+        "example": 1,
+        "f_numbers": [4.6, 4.6, 4.6],
+        "f_number_source": "the patent's FNO 4.6 at all three states (as LensVisualizer's header quotes it; sold as f/4.5)",
+        "sensor_mm": (44.0, 33.0),
+        "format": "645 digital (44 x 33 mm)",
+    },
 ]
 
 NUMBER = r"-?\d+(?:\.\d+)?(?:e[-+]?\d+)?"
