@@ -244,7 +244,8 @@ def lens_text(spec, rows, focal, gaps, commit):
         "# unaffected; ghost shapes are approximate). Focus: the focus solve moves the sensor (the patent's inner",
         "# focusing is not modelled). Glasses: the patent's nd/Vd, each with the dispersion shape of the nearest",
         "# catalogue glass (docs/lens-format.md). ASSUMPTION: a circular iris; single-layer MgF2 on every",
-        "# air-glass surface, the project's usual assumption (the patent publishes no coating).",
+        "# air-glass surface, the project's usual assumption (the patent publishes no coating); the sensor",
+        f"# 36 x 24 mm as in every library file (the clear radii above are sized for the {spec['format']} format).",
         f"name            {title} ({example})",
         f"source          {example}; zoom gaps and f-numbers from the patent's tables",
         "zoom            " + " ".join(f"{nm}={f:.2f}" for nm, f in zip(names, focal)),
@@ -252,7 +253,6 @@ def lens_text(spec, rows, focal, gaps, commit):
     fnos = spec["f_numbers"]
     out.append("f_number        " + (f"{fnos[0]:g}" if len(set(fnos)) == 1 else
                                      " ".join(f"{nm}={v:g}" for nm, v in zip(names, fnos))))
-    out.append(f"sensor          width_mm={w:g} height_mm={h:g} reflectance=0.02")
     out.append("default_coating mgf2")
     if varies:
         out.append("aperture iris " + " ".join(f"{nm}={r:g}" for nm, r in zip(names, stop_radius)))
