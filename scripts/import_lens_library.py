@@ -341,7 +341,11 @@ def lensvisualizer_zooms(git_dir):
         if len(focal_lengths) < 2 or not rows or any(len(v) != len(focal_lengths) for v in gaps.values()):
             continue
         key = tuple(round(float(r), 2) for label, r in rows if label.upper() not in ("STO", "STOP"))
-        tables[key] = {"file": path, "focal_lengths": focal_lengths, "gaps": gaps, "labels": [lb for lb, _ in rows]}
+        # Each row's gap as the surface list prints it (the first state's): merge_zoom_states.py needs
+        # the gap beside a stop that the table places in another air space than a library file does.
+        thick = re.findall(r'\{\s*label:\s*"[^"]+",\s*R:\s*' + number + r',\s*d:\s*(' + number + r')', text)
+        tables[key] = {"file": path, "focal_lengths": focal_lengths, "gaps": gaps, "labels": [lb for lb, _ in rows],
+                       "thicknesses": [float(t) for t in thick] if len(thick) == len(rows) else None}
     return tables
 
 

@@ -7,7 +7,9 @@ focus and, for a variable-aperture zoom, the f-number of each state. For every l
 `zoom-first-position-only` whose radii match such a table (the rule of the import script's
 match_zoom: the same radii row by row, one of the table's states' gaps equal to the file's: usually
 the first, sometimes another), this
-writes the states as zoom positions (`zoom`, `gap` lines; `f_number` per position for a
+writes the states as zoom positions (matched row by row, or, where the file's stop row sits in
+another air space than the table's stop or the file ends with a plate, a filter or cover glass, that
+the table folds into its back focus, air space by air space: _space_gaps) (`zoom`, `gap` lines; `f_number` per position for a
 variable-aperture zoom, the file's own f-number kept at the first) and keeps the result only if
 `flare lens check` passes at every position: the paraxial EFL within 1 % of the state's published
 focal length, the stop opening to the state's f-number, the axial ray fan at it passing.
@@ -75,6 +77,52 @@ def _same_radii(a, b):
     return len(a) == len(b) and all(abs(plane(x) - plane(y)) <= 0.0101 for x, y in zip(a, b))
 
 
+# A cemented resin layer (the thin aspheric layer of a hybrid element) is at most this thick; some
+# transcriptions (LensVisualizer) leave it out, folding it into the glass it sits on.
+MAX_LAYER_MM = 0.02
+
+
+def _layers(rows):
+    """The rows that are the back of a thin cemented layer: the same radius as the row before, which
+    is glass at most MAX_LAYER_MM thick."""
+    out = set()
+    for i in range(1, len(rows)):
+        prev, cur = rows[i - 1][1], rows[i][1]
+        if "stop" in (prev[0], cur[0]) or "inf" in (prev[0], cur[0]) or prev[2] == "air":
+            continue
+        try:
+            thick = float(prev[1])
+        except ValueError:
+            continue
+        if thick <= MAX_LAYER_MM and abs(float(prev[0]) - float(cur[0])) <= 0.0101:
+            out.add(i)
+    return out
+
+
+def _radii(rows, drop_layers=False):
+    """The radii of the surface rows (stop excluded; a plane is 0), to 0.01 mm; without the backs of
+    thin cemented layers when asked."""
+    skip = _layers(rows) if drop_layers else set()
+    return tuple(round(0.0 if t[0] == "inf" else float(t[0]), 2)
+                 for i, (_, t) in enumerate(rows) if t[0] != "stop" and i not in skip)
+
+
+def _matches(rows, key):
+    """Whether a file's rows match a table's radii: as they are, with a plate more at the end, or
+    without the backs of thin cemented layers the table leaves out (and maybe a plate more)."""
+    for drop in (False, True):
+        radii = _radii(rows, drop)
+        if _same_radii(radii, key) or _same_radii_but_plate(radii, key):
+            return True
+    return False
+
+
+def _same_radii_but_plate(a, b):
+    """The file's radii are the table's and two plane surfaces more at the end: a plane-parallel plate
+    (a filter or the sensor's cover glass) the table leaves out."""
+    return len(a) == len(b) + 2 and a[-2:] == (0.0, 0.0) and _same_radii(a[:-2], b)
+
+
 def _f_numbers(git_dir, path, count):
     """LensVisualizer's nominalFno: a list per state (variable aperture) or None (constant)."""
     text = subprocess.run(["git", "--git-dir", git_dir, "show", "HEAD:" + path], capture_output=True, text=True,
@@ -86,14 +134,12 @@ def _f_numbers(git_dir, path, count):
     return values if len(values) == count else None
 
 
-def merged_text(text, table, f_numbers, commit):
-    """The file with the table's states as zoom positions, or None when the table does not match."""
-    lines, rows = _rows(text)
-    radii = tuple(round(0.0 if t[0] == "inf" else float(t[0]), 2) for _, t in rows if t[0] != "stop")
-    if not _same_radii(radii, table["key"]) or len(table["labels"]) != len(rows):
+def _row_gaps(rows, table):
+    """The variable gaps matched row by row (the file and the table list the stop at the same row):
+    ({row: [gap per state]}, the state the file holds), or None."""
+    if len(table["labels"]) != len(rows):
         return None
     n = len(table["focal_lengths"])
-    names = ["wide", "tele"] if n == 2 else ["wide"] + (["mid"] if n == 3 else [f"mid{i}" for i in range(1, n - 1)]) + ["tele"]
     gaps = {}
     for label, values in table["gaps"].items():
         if label not in table["labels"]:
@@ -110,21 +156,174 @@ def merged_text(text, table, f_numbers, commit):
     # some files hold another, e.g. the tele end).
     held = [k for k in range(n)
             if all(abs(values[k] - float(rows[row][1][1])) <= GAP_TOLERANCE_MM for row, values in gaps.items())]
+    return (gaps, held[0]) if held else None
+
+
+# The least gap left between the stop and a vertex when the stop's air space is re-split (the
+# importer's rule for a stop on a vertex, docs/lens-library.md "Conversion").
+MIN_STOP_GAP_MM = 0.01
+
+
+def _space_gaps(rows, table):
+    """The variable gaps matched air space by air space, for a file whose stop row splits an air
+    space differently from the table (the Optical Bench and LensVisualizer place a stop the patent
+    omits or puts on a vertex in different spaces, or split one space differently). An air space is
+    everything between two refracting surfaces: the same in both transcriptions, since the radii
+    match. Where the file's stop sits in a variable space, its distance to one neighbour is kept: to
+    the surface behind it (the stop travels with the group behind it), unless the table puts its
+    stop in the same space and varies the gap behind the stop instead.
+    A file may end with a plane-parallel plate (a filter or the sensor's cover glass) that the
+    table leaves out, folding it into its back focus as an equivalent air gap: then the gap before
+    the plate changes from state to state as the table's back focus does (the plate stays with the
+    sensor; the sensor itself is placed by the focus solve).
+    Returns ({row: [gap per state]}, held state, [surface numbers whose space holds a re-split
+    stop], whether the back focus moved the gap before a plate) or None."""
+    if table.get("thicknesses") is None:
+        return None
+    n = len(table["focal_lengths"])
+
+    def spaces(kinds):
+        """[[rows from a surface to the next]] from row kinds ("surface", "stop", or "layer": the
+        back of a thin cemented layer the table leaves out, part of the glass before it)."""
+        out = []
+        for i, kind in enumerate(kinds):
+            if kind != "surface":
+                continue
+            space = [i]
+            while space[-1] + 1 < len(kinds) and kinds[space[-1] + 1] != "surface":
+                space.append(space[-1] + 1)
+            out.append(space)
+        return out
+
+    layers = _layers(rows) if not _same_radii(_radii(rows), table["key"]) and \
+        not _same_radii_but_plate(_radii(rows), table["key"]) else set()
+    file_spaces = spaces(["stop" if t[0] == "stop" else "layer" if i in layers else "surface"
+                          for i, (_, t) in enumerate(rows)])
+    labels = table["labels"]
+    table_spaces = spaces(["stop" if lb.upper() in ("STO", "STOP") else "surface" for lb in labels])
+    m = len(table_spaces)
+    plate = len(file_spaces) == m + 2
+    if len(file_spaces) != m and not plate:
+        return None
+
+    def table_value(row, k):
+        values = table["gaps"].get(labels[row])
+        return values[k] if values else table["thicknesses"][row]
+
+    gaps, totals, resplit = {}, {}, []
+    for j, (fs, ts) in enumerate(zip(file_spaces[:m - 1], table_spaces[:-1])):  # the last: the back focus
+        total = [sum(table_value(r, k) for r in ts) for k in range(n)]
+        if max(total) - min(total) > 1e-9:
+            totals[j] = total
+    if not totals:
+        return None
+    # Two gaps summed in either transcription: up to two roundings of 0.01 mm.
+    held = [k for k in range(n)
+            if all(abs(sum(float(rows[r][1][1]) for r in file_spaces[j]) - total[k]) <=
+                   GAP_TOLERANCE_MM * (len(file_spaces[j]) + len(table_spaces[j]) - 1) for j, total in totals.items())]
     if not held:
         return None
-    held = held[0]
+    for j, total in totals.items():
+        fs, ts = file_spaces[j], table_spaces[j]
+        if len(fs) == 1:
+            gaps[fs[0]] = [round(t, 6) for t in total]
+            continue
+        if len(fs) != 2:
+            return None
+        before, behind = (float(rows[r][1][1]) for r in fs)
+        if len(ts) != 2 or abs(table_value(ts[0], held[0]) - before) > GAP_TOLERANCE_MM:
+            resplit.append(j + 1)
+        table_varies = [max(table_value(r, k) for k in range(n)) - min(table_value(r, k) for k in range(n)) > 1e-9
+                        for r in ts]
+        if len(ts) == 2 and table_varies == [False, True]:
+            row, values = fs[1], [round(t - before, 6) for t in total]
+        else:
+            row, values = fs[0], [round(t - behind, 6) for t in total]
+        if min(values) < MIN_STOP_GAP_MM:
+            return None
+        gaps[row] = values
+    moved_plate = False
+    if plate:
+        back = [sum(table_value(r, k) for r in table_spaces[m - 1]) for k in range(n)]
+        fs = file_spaces[m - 1]
+        if max(back) - min(back) > 1e-9:
+            if len(fs) != 1:
+                return None
+            base = float(rows[fs[0]][1][1])
+            values = [round(base + b - back[held[0]], 6) for b in back]
+            if min(values) < MIN_STOP_GAP_MM:
+                return None
+            gaps[fs[0]] = values
+            moved_plate = True
+    return gaps, held[0], resplit, moved_plate
+
+
+# Where LensVisualizer's nominalFno is its own fixed-stop model's f-number, not the patent's, the
+# patent's f-numbers per state (with why). A constant-aperture design keeps its one f-number at every
+# state: its iris opens towards tele (opened_text).
+F_NUMBER_OVERRIDES = {
+    "pentax-smc-pentax-a-35-70mm-f4": (
+        [4.1, 4.1],
+        "US 4,812,022 Example 3 prints one F-number, 4.1, for the design (a constant-aperture zoom, sold as f/4); "
+        "LensVisualizer's nominalFno [4.1, 5.394215] is its model's fixed stop at tele, as its header says, and is "
+        "not used"),
+    "samyang-af-35-150mm-f2-2.8-l": (
+        [2.07, 2.63, 2.90],
+        "the patent's F-numbers 2.07 / 2.63 / 2.90 (as LensVisualizer's header quotes them; its nominalFno "
+        "[2, 2.5, 2.8] is the marketed f/2-2.8 and is not used)"),
+}
+
+
+# Variable-aperture zooms whose table's later f-numbers are LensVisualizer's fixed-stop model, with
+# the patent's own F-numbers in neither source: not merged (their f-number per position would not be
+# the patent's).
+MODELLED_F_NUMBERS = {
+    "fujifilm-fujinon-7.1-28.4mm-f2.0-2.8-super-ebc-x10": "JP patent Table 3's rounded f-numbers are replaced by "
+                                                          "LensVisualizer's model (nominalFno 2.064 / 2.357 / 2.875)",
+    "tamron-14-150mm-f3.5-5.8-di-iii": "US 2014/0347522 Example 3: LensVisualizer's nominalFno (3.65 / 5.388 / 5.905) "
+                                       "is its single fixed-stop fit to the patent's F-numbers, not the patent's",
+}
+
+
+def merged_text(text, table, f_numbers, commit, patent=None, f_number_note=None):
+    """The file with the table's states as zoom positions, or None when the table does not match."""
+    lines, rows = _rows(text)
+    if not _matches(rows, table["key"]):
+        return None
+    n = len(table["focal_lengths"])
+    names = ["wide", "tele"] if n == 2 else ["wide"] + (["mid"] if n == 3 else [f"mid{i}" for i in range(1, n - 1)]) + ["tele"]
+    matched = _row_gaps(rows, table)
+    resplit, moved_plate = [], False
+    if matched is None:
+        matched = _space_gaps(rows, table)
+        if matched is None:
+            return None
+        gaps, held, resplit, moved_plate = matched
+    else:
+        gaps, held = matched
     stated_f = None
     for line in lines:
         tokens = line.split("#")[0].split()
         if tokens and tokens[0] == "f_number":
             stated_f = float(tokens[1])
     source = (f"the variable gaps at {n} zoom states (infinity focus) and the states' focal lengths are the patent "
-              f"table's, as transcribed in LensVisualizer (github.com/ronbuening/LensVisualizer, {table['file']}, "
+              f"table's{' (' + patent + ')' if patent else ''}, as transcribed in LensVisualizer (github.com/ronbuening/LensVisualizer, {table['file']}, "
               f"commit {commit[:12]}; no licence stated there: only the patent's numbers are taken, and the radii were "
               f"matched to this file), merged by scripts/merge_zoom_states.py")
     if held:
         source += f"; this file held the table's state {held + 1} ({names[held]}, its focal length {table['focal_lengths'][held]:g} mm)"
-    if f_numbers:
+    if resplit:
+        source += (f"; the stop row sits in the air space behind surface {', '.join(map(str, resplit))}, which the table "
+                   f"splits at another place or not at all: the whole space is the table's at every state, and the stop "
+                   f"keeps the file's distance to the surface behind it (it travels with the group behind it; the "
+                   f"patents print no stop position there), or to the one before it where the table varies the gap "
+                   f"behind its stop")
+    if moved_plate:
+        source += ("; the file ends with a plane-parallel plate (a filter or the sensor's cover glass) that the table "
+                   "folds into its back focus: the gap before the plate changes as the table's back focus does")
+    if f_numbers and f_number_note:
+        source += f"; the f-numbers: {f_number_note}"
+    elif f_numbers:
         source += (f"; the f-numbers of the other states are LensVisualizer's nominalFno (the patent's, or the marketed "
                    f"value where it rounds), the one this file held keeps its f/{stated_f:g}; the check below confirms "
                    f"the stop opens to each")
@@ -238,18 +437,23 @@ def apply(folder, git_dir, flare, skip=()):
     staging = tempfile.mkdtemp(prefix="flare-zoom-merge-")
     candidates = []
     for entry in index["lenses"]:
-        if "zoom-first-position-only" not in entry["tags"] or entry["id"] in skip:
+        if "zoom-first-position-only" not in entry["tags"] or entry["id"] in skip or entry["id"] in MODELLED_F_NUMBERS:
             continue
         path = os.path.join(folder, entry["file"])
         with open(path, encoding="utf-8") as f:
             text = f.read()
         _, rows = _rows(text)
-        radii = tuple(round(0.0 if t[0] == "inf" else float(t[0]), 2) for _, t in rows if t[0] != "stop")
-        table = tables.get(radii) or next((t for k, t in tables.items() if _same_radii(radii, k)), None)
+        radii = _radii(rows)
+        table = (tables.get(radii) or next((t for k, t in tables.items() if _same_radii(radii, k)), None) or
+                 next((t for k, t in tables.items() if _matches(rows, k)), None))
         if not table or len(table["focal_lengths"]) > MAX_STATES:
             continue
         f_numbers = _f_numbers(git_dir, table["file"], len(table["focal_lengths"]))
-        result = merged_text(text, table, f_numbers, commit)
+        patent = f"{entry['patent']} Example {entry['example']}" if entry.get("patent") and entry.get("example") else None
+        f_number_note = None
+        if entry["id"] in F_NUMBER_OVERRIDES:
+            f_numbers, f_number_note = F_NUMBER_OVERRIDES[entry["id"]]
+        result = merged_text(text, table, f_numbers, commit, patent, f_number_note)
         if not result:
             continue
         new_text, names, stated = result
