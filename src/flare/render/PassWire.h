@@ -1,8 +1,11 @@
 // The bytes a rank sends rank 0 after tracing its share of a pass (PassExchange.h): per job its
-// index and its whole result (a batch's hits, tallies and statistics; a beam's triangles, jitter,
-// scale, seed, hits and power), copied bit for bit, so that rank 0's merge sees exactly what its
-// own trace would have produced. Both ends run the same build; a short or inconsistent message is
-// an internal error (std::runtime_error). Internal to the renderer.
+// index and what the merge reads of its result (a batch's hits, tallies and statistics; a beam's
+// triangles as GhostBeam::rasterise reads them, its rim's segments, jitter, scale, seed, hits and
+// power), copied bit for bit, so that rank 0's merge sees exactly what its own trace would have
+// produced. A beam read back is good for the merge alone: its triangles' pupil points (the mesh's,
+// for twins and for building a rim) are not sent, and its rim comes built. Both ends run the same
+// build; a short or inconsistent message is an internal error (std::runtime_error). Internal to
+// the renderer.
 #pragma once
 
 #include <cstdint>
