@@ -11,7 +11,7 @@ namespace {
 
 // Records: a tag, the job's index, then the fields in a fixed order, each a trivially copyable
 // value or a counted array of them, copied as bytes (the same build at both ends).
-constexpr std::uint8_t kBatchTag = 1, kBeamTag = 2;
+constexpr std::uint8_t kBatchTag = 1, kBeamTag = 2, kTraceTimeTag = 3;
 
 static_assert(std::is_trivially_copyable_v<SensorHit>);
 static_assert(std::is_trivially_copyable_v<BeamTriangle>);
@@ -147,12 +147,23 @@ void writeBeam(std::int64_t index, const BeamJob& job, std::vector<char>& out) {
     put(out, job.photons);
 }
 
-long readPassResults(const std::vector<char>& message, const FilmFrame& frame, std::vector<BatchResult>& batches,
-                     std::vector<BeamJob>& beams) {
+void writeTraceTime(double seconds, double cpuSeconds, std::vector<char>& out) {
+    put(out, kTraceTimeTag);
+    put(out, seconds);
+    put(out, cpuSeconds);
+}
+
+PassMessage readPassResults(const std::vector<char>& message, const FilmFrame& frame, std::vector<BatchResult>& batches,
+                            std::vector<BeamJob>& beams) {
     Reader in(message);
-    long jobs = 0;
+    PassMessage read;
     while (!in.done()) {
         const auto tag = in.get<std::uint8_t>();
+        if (tag == kTraceTimeTag) {
+            read.traceS = in.get<double>();
+            read.traceCpuS = in.get<double>();
+            continue;
+        }
         const auto index = in.get<std::int64_t>();
         if (tag == kBatchTag) {
             if (index < 0 || index >= static_cast<std::int64_t>(batches.size())) in.fail("a batch index out of range");
@@ -182,9 +193,9 @@ long readPassResults(const std::vector<char>& message, const FilmFrame& frame, s
         } else {
             in.fail("an unknown record");
         }
-        ++jobs;
+        ++read.jobs;
     }
-    return jobs;
+    return read;
 }
 
 }  // namespace flare::renderer

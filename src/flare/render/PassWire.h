@@ -20,10 +20,18 @@ namespace flare::renderer {
 void writeBatch(std::int64_t index, const BatchResult& batch, std::vector<char>& out);
 void writeBeam(std::int64_t index, const BeamJob& job, std::vector<char>& out);
 
+// Appends the time the sending rank took to trace its share and encode it (wall and CPU seconds),
+// by which rank 0 balances the shares and reports the costs.
+void writeTraceTime(double seconds, double cpuSeconds, std::vector<char>& out);
+
 // Reads a rank's message into the pass's `batches` and `beams` (whose light, slot, index,
 // replicate and sequence index rank 0 drew itself), each entry at its index; `frame` is the film's
-// (the beams' images). Returns how many jobs it held.
-long readPassResults(const std::vector<char>& message, const FilmFrame& frame, std::vector<BatchResult>& batches,
-                     std::vector<BeamJob>& beams);
+// (the beams' images). Returns how many jobs it held and its trace time.
+struct PassMessage {
+    long jobs = 0;
+    double traceS = 0.0, traceCpuS = 0.0;
+};
+PassMessage readPassResults(const std::vector<char>& message, const FilmFrame& frame, std::vector<BatchResult>& batches,
+                            std::vector<BeamJob>& beams);
 
 }  // namespace flare::renderer

@@ -20,23 +20,34 @@ namespace flare {
 namespace {
 
 // R ranks in one process: a rank deposits its message, all meet, rank 0 takes every message, all
-// meet again (so that no rank's next message overwrites one rank 0 has not taken).
+// meet again (so that no rank's next message overwrites one rank 0 has not taken); a broadcast
+// likewise.
 class ThreadRanks {
 public:
     explicit ThreadRanks(int size) : size_(size), slots_(size), meet_(size) {}
     int size() const { return size_; }
-    std::vector<std::vector<char>> gather(int rank, std::vector<char> mine) {
-        slots_[rank] = std::move(mine);
+    void gather(int rank, const std::vector<char>& mine, std::vector<std::vector<char>>& all) {
+        slots_[rank] = mine;
         meet_.arrive_and_wait();
-        std::vector<std::vector<char>> all;
-        if (rank == 0) all = std::move(slots_), slots_.assign(size_, {});
+        if (rank == 0) {
+            all = std::move(slots_);
+            all[0].clear();
+            slots_.assign(size_, {});
+        }
         meet_.arrive_and_wait();
-        return all;
+    }
+    int broadcast(int rank, int value) {
+        if (rank == 0) value_ = value;
+        meet_.arrive_and_wait();
+        const int root = value_;
+        meet_.arrive_and_wait();
+        return root;
     }
 
 private:
     int size_;
     std::vector<std::vector<char>> slots_;
+    int value_ = 0;
     std::barrier<> meet_;
 };
 
@@ -45,7 +56,10 @@ public:
     ThreadRank(ThreadRanks& ranks, int rank) : ranks_(ranks), rank_(rank) {}
     int rank() const override { return rank_; }
     int size() const override { return ranks_.size(); }
-    std::vector<std::vector<char>> gatherAtRoot(std::vector<char> mine) override { return ranks_.gather(rank_, std::move(mine)); }
+    void gatherAtRoot(const std::vector<char>& mine, std::vector<std::vector<char>>& all) override {
+        ranks_.gather(rank_, mine, all);
+    }
+    int broadcastFromRoot(int value) override { return ranks_.broadcast(rank_, value); }
 
 private:
     ThreadRanks& ranks_;
