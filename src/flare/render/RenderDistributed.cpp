@@ -61,10 +61,11 @@ double cpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC;
 // Rank 0's share (of kShareSteps) that balances the ranks: rank 0 tracing s·W and merging in M
 // takes as long as another rank tracing (1 − s)·W / (R − 1), W the whole pass's tracing on one
 // rank, estimated from the jobs' measured cost; at most an equal share, at least none.
+// Before rank 0 has merged a pass (its cost unknown): half an equal share.
 int balancedRootShare(const DistributedPasses& d, long jobs, int ranks) {
     const double tracedS = d.rootTraceS + d.othersTraceS * (ranks - 1);
     const long traced = d.rootJobs + d.othersJobs * (ranks - 1);
-    if (!(tracedS > 0.0) || traced <= 0 || !(d.mergeS >= 0.0)) return d.rootShare;
+    if (!(tracedS > 0.0) || traced <= 0 || !(d.mergeS >= 0.0)) return kShareSteps / (2 * ranks);
     const double wholeS = tracedS / static_cast<double>(traced) * static_cast<double>(jobs);
     const double share = (wholeS - (ranks - 1) * d.mergeS) / (ranks * wholeS);
     return static_cast<int>(std::lround(std::clamp(share, 0.0, 1.0 / ranks) * kShareSteps));
@@ -80,8 +81,9 @@ void Renderer::setExchange(PassExchange* exchange) {
     if (exchange_ == nullptr || exchange_->size() <= 1) return;
     distributed_ = std::make_shared<renderer::DistributedPasses>();
     distributed_->inbox.resize(static_cast<size_t>(exchange_->size()));
-    // Until the first passes are measured: rank 0 half a share (it merges too).
-    distributed_->rootShare = kShareSteps / (2 * exchange_->size());
+    // A session's first pass: an equal share (every rank traces it at once, and rank 0 has no
+    // pass to merge meanwhile).
+    distributed_->rootShare = kShareSteps / exchange_->size();
 }
 
 void Renderer::runDistributedPass() {
