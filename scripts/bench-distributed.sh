@@ -2,7 +2,9 @@
 # Distributed render scaling on this machine (docs/scaling.md): the same image rendered by one
 # process with 1 and 2 threads and by 2 MPI ranks of 1 thread each, the runs interleaved (so that
 # the machine's load hits every configuration alike), REPEATS times; prints each run's pass time
-# (the report's wall_time_s: the passes, without the start-up) and whole-run time, and the medians.
+# (the report's wall_time_s: the passes, without the start-up), whole-run time and CPU time (user +
+# system, all processes, GNU time), the medians, the load average before and after, and the
+# 2-rank runs' per-pass costs as flare render prints them (wall / CPU s of each part).
 # Usage: scripts/bench-distributed.sh [build/src/flare] [repeats] [photons] [extra render options...]
 set -euo pipefail
 flare=${1:-build/src/flare}
@@ -13,7 +15,7 @@ out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 # Ranks waiting for rank 0 yield their core rather than spin (the machine may be shared).
 mpirun=(mpirun --allow-run-as-root --oversubscribe --mca mpi_yield_when_idle 1)
-common=(--photons "$photons" --target-error 0 --quiet --no-diffraction "$@")
+common=(--photons "$photons" --target-error 0 --no-diffraction "$@")
 
 declare -A runs=(
   [threads1]="$flare render -o $out/x.exr --report $out/r.json --threads 1 ${common[*]}"
@@ -21,16 +23,20 @@ declare -A runs=(
   [ranks2]="${mpirun[*]} -np 2 --bind-to core $flare render -o $out/x.exr --report $out/r.json --threads 1 ${common[*]}"
 )
 order=(threads1 threads2 ranks2)
+echo "load before: $(uptime)"
 for ((i = 0; i < repeats; i++)); do
   for name in "${order[@]}"; do
     start=$(date +%s.%N)
-    ${runs[$name]} >/dev/null
+    /usr/bin/time -f "%U %S" -o "$out/cpu" ${runs[$name]} >/dev/null 2>"$out/err"
     end=$(date +%s.%N)
     passes=$(python3 -c "import json; print(json.load(open('$out/r.json'))['wall_time_s'])")
-    echo "$name $passes $(python3 -c "print($end - $start)")" | tee -a "$out/times"
+    cpu=$(python3 -c "u, s = open('$out/cpu').read().split()[-2:]; print(float(u) + float(s))")
+    echo "$name $passes $(python3 -c "print($end - $start)") $cpu" | tee -a "$out/times"
+    grep -o "ranks, per pass.*" "$out/err" || true
     cp "$out/x.exr" "$out/$name-$i.exr"
   done
 done
+echo "load after: $(uptime)"
 # Every run made the same image, bit for bit.
 for f in "$out"/*-*.exr; do cmp -s "$f" "$out/threads1-0.exr" || { echo "bench: $f differs" >&2; exit 1; }; done
 python3 - "$out/times" <<'PY'
@@ -40,8 +46,10 @@ med = {}
 for name in ("threads1", "threads2", "ranks2"):
     passes = [float(r[1]) for r in rows if r[0] == name]
     total = [float(r[2]) for r in rows if r[0] == name]
-    med[name] = (statistics.median(passes), statistics.median(total))
-    print(f"{name:9s} passes {med[name][0]:7.2f} s   whole run {med[name][1]:7.2f} s   (median of {len(passes)})")
+    cpu = [float(r[3]) for r in rows if r[0] == name]
+    med[name] = (statistics.median(passes), statistics.median(total), statistics.median(cpu))
+    print(f"{name:9s} passes {med[name][0]:7.2f} s   whole run {med[name][1]:7.2f} s   CPU {med[name][2]:7.2f} s"
+          f"   (median of {len(passes)})")
 for name in ("threads2", "ranks2"):
     print(f"speed-up of {name} over threads1: passes {med['threads1'][0] / med[name][0]:.2f}x, "
           f"whole run {med['threads1'][1] / med[name][1]:.2f}x")

@@ -25,9 +25,8 @@ public:
     int size() const override { return size_; }
     bool root() const { return rank_ == 0; }
 
-    std::vector<std::vector<char>> gatherAtRoot(std::vector<char> mine) override;
-    // Collective: rank 0's `value` at every rank.
-    int broadcastFromRoot(int value);
+    void gatherAtRoot(const std::vector<char>& mine, std::vector<std::vector<char>>& all) override;
+    int broadcastFromRoot(int value) override;
     // Collective: returns when every rank has called it.
     void barrier();
     // Ends every rank with `code` (an error on one rank, which the others would wait for forever).

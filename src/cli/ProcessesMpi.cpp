@@ -53,12 +53,8 @@ Processes& Processes::world() {
     return world;
 }
 
-std::vector<std::vector<char>> Processes::gatherAtRoot(std::vector<char> mine) {
-    std::vector<std::vector<char>> all;
-    if (size_ == 1) {
-        all.push_back(std::move(mine));
-        return all;
-    }
+void Processes::gatherAtRoot(const std::vector<char>& mine, std::vector<std::vector<char>>& all) {
+    if (size_ == 1) return;
     std::uint64_t bytes = mine.size();
     std::vector<std::uint64_t> sizes(root() ? size_ : 0);
     MPI_Gather(&bytes, 1, MPI_UINT64_T, sizes.data(), 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
@@ -66,17 +62,16 @@ std::vector<std::vector<char>> Processes::gatherAtRoot(std::vector<char> mine) {
         for (std::uint64_t at = 0; at < bytes; at += kPieceBytes)
             MPI_Send(mine.data() + at, static_cast<int>(std::min(kPieceBytes, bytes - at)), MPI_BYTE, 0, kGatherTag,
                      MPI_COMM_WORLD);
-        return all;
+        return;
     }
     all.resize(size_);
-    all[0] = std::move(mine);
+    all[0].clear();
     for (int r = 1; r < size_; ++r) {
-        all[r].resize(sizes[r]);
+        all[r].resize(sizes[r]);  // (within the capacity of the last pass's message, mostly)
         for (std::uint64_t at = 0; at < sizes[r]; at += kPieceBytes)
             MPI_Recv(all[r].data() + at, static_cast<int>(std::min(kPieceBytes, sizes[r] - at)), MPI_BYTE, r,
                      kGatherTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
     }
-    return all;
 }
 
 int Processes::broadcastFromRoot(int value) {

@@ -1,5 +1,6 @@
 #include "RenderCommand.h"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -7,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -157,6 +159,8 @@ int run(const RenderCommandOptions& o) {
     }
 
     const RenderStopRule stop = RenderStopRule::make(scene, options, o.photons > 0 ? o.photons : 0, o.timeS, o.targetError);
+    // (The ranks trace a pass ahead while rank 0 merges: none beyond the last.)
+    if (stop.passesWanted > 0) renderer.setPassLimit(static_cast<int>(std::min<std::int64_t>(stop.passesWanted, std::numeric_limits<int>::max())));
 
     auto lastCheckpoint = std::chrono::steady_clock::now();
     bool interrupted = false;
@@ -261,10 +265,12 @@ int run(const RenderCommandOptions& o) {
             const ExchangeCosts& c = renderer.exchangeCosts();
             const double perPass = c.passes > 0 ? 1.0 / c.passes : 0.0;
             std::fprintf(stderr,
-                         "  %d ranks, per pass: rank 0 traced its share in %.3g s, gathered %.3g MB from the others in "
-                         "%.3g s, merged in %.3g s\n",
-                         processes.size(), c.traceS * perPass, c.bytesReceived * perPass / 1e6, c.gatherS * perPass,
-                         c.mergeS * perPass);
+                         "  %d ranks, per pass (wall s / CPU s): rank 0 traced %.0f%% of the jobs in %.3g / %.3g, each "
+                         "other rank traced and encoded its share in %.3g / %.3g; rank 0 waited for and received %.3g "
+                         "MB in %.3g, decoded and merged in %.3g / %.3g\n",
+                         processes.size(), 100.0 * c.rootShare * perPass, c.traceS * perPass, c.traceCpuS * perPass,
+                         c.othersTraceS * perPass, c.othersTraceCpuS * perPass, c.bytesReceived * perPass / 1e6,
+                         c.gatherS * perPass, c.mergeS * perPass, c.mergeCpuS * perPass);
         }
         for (const LightPlan& l : renderer.lights())
             if (l.skipped) std::fprintf(stderr, "  skipped light %s: %s\n", l.name.c_str(), l.skipReason.c_str());

@@ -134,6 +134,19 @@ BeamRim BeamRim::build(const std::vector<RimTriangle>& triangles, double edgeSca
         kept.push_back(s);
     }
     rim.segments_.swap(kept);
+    rim.indexBands(heightPx);
+    return rim;
+}
+
+BeamRim BeamRim::fromSegments(std::vector<Segment> segments, double edgeScalePx, int heightPx) {
+    BeamRim rim;
+    rim.edgeScalePx_ = edgeScalePx;
+    rim.segments_ = std::move(segments);
+    if (!rim.segments_.empty()) rim.indexBands(heightPx);
+    return rim;
+}
+
+void BeamRim::indexBands(int heightPx) {
     // By band, as GhostBeam's triangles: the rows a segment's wedge reaches ± the jitter.
     const int bands = std::max(1, (heightPx + Film::kBandRows - 1) / Film::kBandRows);
     auto bandRange = [&](const Segment& s) {
@@ -141,19 +154,18 @@ BeamRim BeamRim::build(const std::vector<RimTriangle>& triangles, double edgeSca
         const int last = std::clamp(static_cast<int>(std::floor((s.rowMax + 2.0) / Film::kBandRows)), 0, bands - 1);
         return std::pair{first, last};
     };
-    rim.bandStart_.assign(bands + 1, 0);
-    for (const Segment& s : rim.segments_) {
+    bandStart_.assign(bands + 1, 0);
+    for (const Segment& s : segments_) {
         const auto [first, last] = bandRange(s);
-        for (int b = first; b <= last; ++b) ++rim.bandStart_[b + 1];
+        for (int b = first; b <= last; ++b) ++bandStart_[b + 1];
     }
-    for (int b = 0; b < bands; ++b) rim.bandStart_[b + 1] += rim.bandStart_[b];
-    rim.bandSegments_.resize(rim.bandStart_[bands]);
-    std::vector<int> next(rim.bandStart_.begin(), rim.bandStart_.end() - 1);
-    for (int n = 0; n < static_cast<int>(rim.segments_.size()); ++n) {
-        const auto [first, last] = bandRange(rim.segments_[n]);
-        for (int b = first; b <= last; ++b) rim.bandSegments_[next[b]++] = n;
+    for (int b = 0; b < bands; ++b) bandStart_[b + 1] += bandStart_[b];
+    bandSegments_.resize(bandStart_[bands]);
+    std::vector<int> next(bandStart_.begin(), bandStart_.end() - 1);
+    for (int n = 0; n < static_cast<int>(segments_.size()); ++n) {
+        const auto [first, last] = bandRange(segments_[n]);
+        for (int b = first; b <= last; ++b) bandSegments_[next[b]++] = n;
     }
-    return rim;
 }
 
 FLARE_ROUNDING_CLONES

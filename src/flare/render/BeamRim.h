@@ -52,7 +52,7 @@ public:
     void rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3& scale, int widthPx, int heightPx,
                    double* rows) const;
 
-private:
+    // A segment of the rim, as build() makes it (trivially copyable).
     struct Segment {
         glm::dvec2 a{0.0}, b{0.0};        // ends, in pixels
         glm::dvec2 along{0.0};            // unit, a → b
@@ -63,6 +63,14 @@ private:
         double irradianceA = 0.0, irradianceB = 0.0;
         double rowMin = 0.0, rowMax = 0.0, columnMin = 0.0, columnMax = 0.0;  // the wedge's reach
     };
+    const std::vector<Segment>& segments() const { return segments_; }
+    // A rim of segments that build() made (another process's beam, PassWire.h: sent as they are
+    // rather than rebuilt from the triangles' pupil points), for a film heightPx rows high.
+    static BeamRim fromSegments(std::vector<Segment> segments, double edgeScalePx, int heightPx);
+
+private:
+    // Lists the segments reaching each film band (bandStart_, bandSegments_).
+    void indexBands(int heightPx);
     std::vector<Segment> segments_;
     double edgeScalePx_ = 0.0;
     std::vector<int> bandStart_, bandSegments_;  // segments reaching band b, as GhostBeam's triangles

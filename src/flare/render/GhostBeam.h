@@ -32,6 +32,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <utility>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -108,6 +109,8 @@ public:
     // the scale from the path's paraxial system): rasterise then adds the rim's excess over the
     // geometric step. 0: the geometric image (the default).
     void ring(double edgeScalePx);
+    // The same with a rim ring() made elsewhere (a beam traced by another process, PassWire.h).
+    void ring(BeamRim rim) { rim_ = std::move(rim); }
     const BeamRim& rim() const { return rim_; }
 
     // The image's power on the sensor per unit incident power density (mm² of pupil, with the

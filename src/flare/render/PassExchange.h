@@ -3,12 +3,13 @@
 // (the CLI's Processes.h over MPI) and the Renderer (Render.h, RenderDistributed.cpp) uses it.
 //
 // A pass's work is a fixed list of jobs, the same for any number of processes: its beams, then its
-// photon batches, each with random numbers of its own (Render.h). Rank r traces the jobs
-// j ≡ r (mod R) (interleaved, so that the beams, which cost more each, are shared too), and sends
-// what they produced (PassWire.h) to rank 0, which puts every job's result in its place and merges
-// the pass into the film exactly as one process does: same jobs, same order, same sums. So the
-// image, the tallies and the report are bitwise those of one process, for any number of processes
-// and threads, and a checkpoint written by R processes resumes with any other number.
+// photon batches, each with random numbers of its own (Render.h). The ranks trace the jobs
+// (jobRank: rank 0 a share it adjusts, since it alone merges, the others the rest in turn) and
+// send what they produced (PassWire.h) to rank 0, which puts every job's result in its place and
+// merges the pass into the film exactly as one process does: same jobs, same order, same sums.
+// The other ranks trace the next pass while rank 0 merges (they need nothing from the film). So
+// the image, the tallies and the report are bitwise those of one process, for any number of
+// processes and threads, and a checkpoint written by R processes resumes with any other number.
 #pragma once
 
 #include <vector>
@@ -20,12 +21,26 @@ public:
     virtual ~PassExchange() = default;
     virtual int rank() const = 0;
     virtual int size() const = 0;
-    // Collective: every rank's bytes at rank 0, indexed by rank (rank 0's own included); the other
-    // ranks get an empty list.
-    virtual std::vector<std::vector<char>> gatherAtRoot(std::vector<char> mine) = 0;
+    // Collective: every rank's bytes at rank 0, in `all` indexed by rank (rank 0's own entry is
+    // left empty: its results stay where they are); the other ranks' `all` is left as it was.
+    // `all` keeps its buffers from call to call: a pass's messages are tens of MB, and fresh
+    // memory every pass costs page faults.
+    virtual void gatherAtRoot(const std::vector<char>& mine, std::vector<std::vector<char>>& all) = 0;
+    // Collective: rank 0's `value` at every rank.
+    virtual int broadcastFromRoot(int value) = 0;
 };
 
-// Whether job `job` of a pass is this rank's (interleaved: job mod size).
-inline bool ownsJob(const PassExchange& exchange, long job) { return job % exchange.size() == exchange.rank(); }
+// Rank 0's share of a pass's jobs is rootShare / kShareSteps.
+inline constexpr int kShareSteps = 64;
+
+// The rank that traces job `job` of a pass when rank 0 takes rootShare / kShareSteps of them:
+// rank 0's jobs spread evenly (job j is its when ⌊(j + 1)·s⌋ > ⌊j·s⌋, so that every path's
+// consecutive beams, which cost alike, are shared alike), the others' dealt in turn.
+inline int jobRank(long job, int rootShare, int size) {
+    if (size <= 1) return 0;
+    const long rootBefore = job * rootShare / kShareSteps;  // rank 0's jobs among 0 .. job − 1
+    if ((job + 1) * rootShare / kShareSteps > rootBefore) return 0;
+    return 1 + static_cast<int>((job - rootBefore) % (size - 1));
+}
 
 }  // namespace flare

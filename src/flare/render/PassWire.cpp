@@ -11,10 +11,11 @@ namespace {
 
 // Records: a tag, the job's index, then the fields in a fixed order, each a trivially copyable
 // value or a counted array of them, copied as bytes (the same build at both ends).
-constexpr std::uint8_t kBatchTag = 1, kBeamTag = 2;
+constexpr std::uint8_t kBatchTag = 1, kBeamTag = 2, kTraceTimeTag = 3;
 
 static_assert(std::is_trivially_copyable_v<SensorHit>);
 static_assert(std::is_trivially_copyable_v<BeamTriangle>);
+static_assert(std::is_trivially_copyable_v<BeamRim::Segment>);
 static_assert(std::is_trivially_copyable_v<RenderStatistics>);
 
 template <class T>
@@ -46,6 +47,15 @@ public:
         at_ += sizeof value;
         return value;
     }
+    // An array of fixed size (a C array member), in place.
+    template <class T>
+    void getInto(T& value) {
+        static_assert(std::is_trivially_copyable_v<T>);
+        need(sizeof value);
+        std::memcpy(&value, message_.data() + at_, sizeof value);
+        at_ += sizeof value;
+    }
+    size_t left() const { return message_.size() - at_; }
     template <class T>
     std::vector<T> getArray() {
         const auto count = get<std::uint64_t>();
@@ -69,6 +79,46 @@ private:
     size_t at_ = 0;
 };
 
+// A triangle as the merge reads it (GhostBeam::rasterise): its image's corners, and the corners'
+// irradiance, or for a small triangle (splatted at points) the corners' throughput and its pupil
+// area. The pupil points and the rest serve the trace alone (the mesh, the twins, the rim's
+// construction), which the tracing rank has done: 73 or 81 bytes where the whole is 168.
+constexpr std::uint8_t kSmallTriangle = 1;
+
+void putTriangles(std::vector<char>& out, const std::vector<BeamTriangle>& triangles) {
+    put(out, static_cast<std::uint64_t>(triangles.size()));
+    for (const BeamTriangle& t : triangles) {
+        put(out, static_cast<std::uint8_t>(t.small ? kSmallTriangle : 0));
+        put(out, t.pixel);
+        if (t.small) {
+            put(out, t.throughput);
+            put(out, t.pupilAreaMm2);
+        } else {
+            put(out, t.irradiance);
+        }
+    }
+}
+
+std::vector<BeamTriangle> getTriangles(Reader& in) {
+    const auto count = in.get<std::uint64_t>();
+    if (count > in.left() / (1 + sizeof(BeamTriangle::pixel) + sizeof(BeamTriangle::irradiance)))
+        in.fail("a beam's triangles run past the message's end");
+    std::vector<BeamTriangle> triangles(count);  // (the fields the merge does not read stay zero)
+    for (BeamTriangle& t : triangles) {
+        const auto kind = in.get<std::uint8_t>();
+        if (kind != 0 && kind != kSmallTriangle) in.fail("a triangle of an unknown kind");
+        t.small = kind == kSmallTriangle;
+        in.getInto(t.pixel);
+        if (t.small) {
+            in.getInto(t.throughput);
+            t.pupilAreaMm2 = in.get<double>();
+        } else {
+            in.getInto(t.irradiance);
+        }
+    }
+    return triangles;
+}
+
 }  // namespace
 
 void writeBatch(std::int64_t index, const BatchResult& batch, std::vector<char>& out) {
@@ -84,10 +134,11 @@ void writeBatch(std::int64_t index, const BatchResult& batch, std::vector<char>&
 void writeBeam(std::int64_t index, const BeamJob& job, std::vector<char>& out) {
     put(out, kBeamTag);
     put(out, index);
-    putArray(out, job.beam.triangles());
+    putTriangles(out, job.beam.triangles());
     put(out, job.beam.tracedRays());
-    // The rim's Fresnel scale (0: geometric): rank 0 rebuilds the same rim from the same triangles.
+    // The rim as built (its Fresnel scale, 0: geometric, and its segments).
     put(out, job.beam.rim().edgeScalePx());
+    putArray(out, job.beam.rim().segments());
     put(out, job.jitterPx);
     put(out, job.scale);
     put(out, job.seed);
@@ -96,12 +147,23 @@ void writeBeam(std::int64_t index, const BeamJob& job, std::vector<char>& out) {
     put(out, job.photons);
 }
 
-long readPassResults(const std::vector<char>& message, const FilmFrame& frame, std::vector<BatchResult>& batches,
-                     std::vector<BeamJob>& beams) {
+void writeTraceTime(double seconds, double cpuSeconds, std::vector<char>& out) {
+    put(out, kTraceTimeTag);
+    put(out, seconds);
+    put(out, cpuSeconds);
+}
+
+PassMessage readPassResults(const std::vector<char>& message, const FilmFrame& frame, std::vector<BatchResult>& batches,
+                            std::vector<BeamJob>& beams) {
     Reader in(message);
-    long jobs = 0;
+    PassMessage read;
     while (!in.done()) {
         const auto tag = in.get<std::uint8_t>();
+        if (tag == kTraceTimeTag) {
+            read.traceS = in.get<double>();
+            read.traceCpuS = in.get<double>();
+            continue;
+        }
         const auto index = in.get<std::int64_t>();
         if (tag == kBatchTag) {
             if (index < 0 || index >= static_cast<std::int64_t>(batches.size())) in.fail("a batch index out of range");
@@ -114,12 +176,14 @@ long readPassResults(const std::vector<char>& message, const FilmFrame& frame, s
         } else if (tag == kBeamTag) {
             if (index < 0 || index >= static_cast<std::int64_t>(beams.size())) in.fail("a beam index out of range");
             BeamJob& job = beams[static_cast<size_t>(index)];
-            std::vector<BeamTriangle> triangles = in.getArray<BeamTriangle>();
+            std::vector<BeamTriangle> triangles = getTriangles(in);
             const long tracedRays = in.get<long>();
             job.beam = GhostBeam::fromTriangles(std::move(triangles), frame, tracedRays);
             const double edgeScalePx = in.get<double>();
             if (!(edgeScalePx >= 0.0 && edgeScalePx < 1e9)) in.fail("a rim's Fresnel scale out of range");
-            if (edgeScalePx > 0.0) job.beam.ring(edgeScalePx);
+            std::vector<BeamRim::Segment> segments = in.getArray<BeamRim::Segment>();
+            if (!segments.empty() && !(edgeScalePx > 0.0)) in.fail("a geometric rim with segments");
+            if (edgeScalePx > 0.0) job.beam.ring(BeamRim::fromSegments(std::move(segments), edgeScalePx, frame.heightPx));
             job.jitterPx = in.get<glm::dvec2>();
             job.scale = in.get<glm::dvec3>();
             job.seed = in.get<std::uint64_t>();
@@ -129,9 +193,9 @@ long readPassResults(const std::vector<char>& message, const FilmFrame& frame, s
         } else {
             in.fail("an unknown record");
         }
-        ++jobs;
+        ++read.jobs;
     }
-    return jobs;
+    return read;
 }
 
 }  // namespace flare::renderer

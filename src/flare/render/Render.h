@@ -48,6 +48,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -230,15 +231,20 @@ struct RenderStatistics {
 };
 
 // What sharing the passes among ranks cost so far (Renderer::exchangeCosts, rank 0's view; all
-// zero for a render alone): the time tracing this rank's jobs, waiting for and receiving the other
-// ranks' results, and merging the whole pass, and the bytes received. docs/scaling.md models
-// renders on many nodes from them.
+// zero for a render alone), summed over the passes, in wall and CPU seconds (…Cpu: the process's
+// CPU time, all its threads; on a shared machine the wall time also counts other processes'):
+// rank 0's share of the jobs (summed) and its time tracing them; the other ranks' time tracing
+// and encoding theirs (their mean per pass, as they report it); rank 0's time waiting for and
+// receiving their results, and the bytes; its time decoding them and merging the whole pass.
+// docs/scaling.md models renders on many nodes from them.
 struct ExchangeCosts {
     int passes = 0;
-    double traceS = 0.0, gatherS = 0.0, mergeS = 0.0;
-    double bytesReceived = 0.0;
+    double rootShare = 0.0;
+    double traceS = 0.0, traceCpuS = 0.0;
+    double othersTraceS = 0.0, othersTraceCpuS = 0.0;
+    double gatherS = 0.0, bytesReceived = 0.0;
+    double mergeS = 0.0, mergeCpuS = 0.0;
 };
-
 // The renderer's internals: its plan (RenderPlan.h) and the strategies' work (PhotonBatches.h,
 // BeamStrategy.h).
 class PassExchange;
@@ -248,6 +254,7 @@ struct LightState;
 struct PhotonComponent;
 struct BatchResult;
 struct BeamJob;
+struct DistributedPasses;
 }  // namespace renderer
 
 class Renderer {
@@ -263,11 +270,15 @@ public:
     // Traces one pass (options.photonsPerPass() photons and the beams) in parallel and merges it.
     // With an exchange of several ranks (setExchange), every rank must call it: each traces its
     // share of the pass and rank 0 merges the whole pass; only rank 0's film, tallies and
-    // statistics are the render's (the others' count the passes, nothing else).
+    // statistics are the render's (the others' count the passes, nothing else). The other ranks
+    // return having traced their share of the next pass too (sent by their next call), unless the
+    // pass limit is reached: rank 0's merge of this pass overlaps their tracing of the next.
     void runPass();
     // Shares the passes among the exchange's ranks (PassExchange.h); null, or one rank: this
     // process traces every pass alone. The exchange must outlive the passes.
-    void setExchange(PassExchange* exchange) { exchange_ = exchange; }
+    void setExchange(PassExchange* exchange);
+    // The passes the render will run at most (0: unknown): no rank traces ahead beyond them.
+    void setPassLimit(int passes) { passLimit_ = passes; }
     const ExchangeCosts& exchangeCosts() const { return exchangeCosts_; }
 
     const RenderOptions& options() const { return options_; }
@@ -349,6 +360,9 @@ private:
     std::vector<std::vector<std::uint64_t>> beamsDrawn_;
     PassExchange* exchange_ = nullptr;
     ExchangeCosts exchangeCosts_;
+    int passLimit_ = 0;
+    // A shared pass's buffers, the next pass traced ahead and the shares (RenderDistributed.cpp).
+    std::shared_ptr<renderer::DistributedPasses> distributed_;
 };
 
 }  // namespace flare

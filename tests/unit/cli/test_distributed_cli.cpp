@@ -1,6 +1,7 @@
 // `mpirun -np R flare render` (docs/distributed.md): the image and the report are bitwise those of
-// one process for 1, 2 and 3 ranks (3 oversubscribed on two cores), with any number of threads;
-// a checkpoint written by 2 ranks resumes with 1 and gives the uninterrupted image. Skipped when
+// one process for 1, 2 and 3 ranks (3 oversubscribed on two cores), with any number of threads,
+// and when the target error stops the render; a checkpoint written by 2 ranks resumes with 1 and
+// gives the uninterrupted image. Skipped when
 // the build has no MPI (FLARE_MPIEXEC undefined).
 #include <filesystem>
 #include <fstream>
@@ -78,6 +79,27 @@ TEST(DistributedCli, OneTwoAndThreeRanksGiveTheImageAndReportOfOneProcess) {
     int files = 0;
     for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(dir)) ++files;
     EXPECT_EQ(files, 1 + 2 * 4);
+}
+
+// Stopped by its target error long before its photon count, a render on two ranks ends after the
+// pass one process ends after (rank 0 decides), though rank 1 has traced the next pass ahead (it is
+// dropped), and gives one process's image and report.
+TEST(DistributedCli, ATargetErrorStopsTwoRanksAfterThePassOfOneProcess) {
+    const auto dir = test::freshDir("flare_distributed_cli", "target");
+    const std::string scene = test::writeTinyScene(dir);
+    const std::string options = " --photons 6553600 --target-error 0.9 --beams-per-pass 128 --quiet --threads 1";
+    auto render = [&](const std::string& launcher, const std::string& name) {
+        const test::CliRun r = shell(launcher + "render " + scene + " -o " + (dir / (name + ".exr")).string() +
+                                     " --report " + (dir / (name + ".json")).string() + options);
+        ASSERT_EQ(r.exitCode, 0) << r.out;
+    };
+    render(std::string(FLARE_CLI_PATH) + " ", "alone");
+    render("timeout 120 " + mpirun(2), "r2");  // (a rank left waiting would hang)
+    const nlohmann::json alone = reportWithoutTimes(dir / "alone.json");
+    // (Stopped by the target, at the first pass a stop may come after: 8 of the 100 passes.)
+    EXPECT_EQ(alone.at("photons").get<long>(), 8 * 65536L) << alone.dump();
+    EXPECT_EQ(reportWithoutTimes(dir / "r2.json"), alone);
+    EXPECT_TRUE(bytes(dir / "r2.exr") == bytes(dir / "alone.exr"));
 }
 
 TEST(DistributedCli, ACheckpointOfTwoRanksResumesWithOneToTheUninterruptedImage) {

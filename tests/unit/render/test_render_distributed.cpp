@@ -2,9 +2,13 @@
 // this process: rank 0's film, tallies and statistics are bitwise one renderer's, for 2 and 3
 // ranks, with beams, guided and unguided photons and a dusty lens (every kind of job and hit).
 // Runs in every build, with or without MPI (the CLI tests run the MPI transport itself).
+#include <algorithm>
 #include <barrier>
+#include <cstdlib>
 #include <cstring>
 #include <memory>
+#include <string>
+#include <utility>
 #include <thread>
 #include <vector>
 
@@ -20,23 +24,34 @@ namespace flare {
 namespace {
 
 // R ranks in one process: a rank deposits its message, all meet, rank 0 takes every message, all
-// meet again (so that no rank's next message overwrites one rank 0 has not taken).
+// meet again (so that no rank's next message overwrites one rank 0 has not taken); a broadcast
+// likewise.
 class ThreadRanks {
 public:
     explicit ThreadRanks(int size) : size_(size), slots_(size), meet_(size) {}
     int size() const { return size_; }
-    std::vector<std::vector<char>> gather(int rank, std::vector<char> mine) {
-        slots_[rank] = std::move(mine);
+    void gather(int rank, const std::vector<char>& mine, std::vector<std::vector<char>>& all) {
+        slots_[rank] = mine;
         meet_.arrive_and_wait();
-        std::vector<std::vector<char>> all;
-        if (rank == 0) all = std::move(slots_), slots_.assign(size_, {});
+        if (rank == 0) {
+            all = std::move(slots_);
+            all[0].clear();
+            slots_.assign(size_, {});
+        }
         meet_.arrive_and_wait();
-        return all;
+    }
+    int broadcast(int rank, int value) {
+        if (rank == 0) value_ = value;
+        meet_.arrive_and_wait();
+        const int root = value_;
+        meet_.arrive_and_wait();
+        return root;
     }
 
 private:
     int size_;
     std::vector<std::vector<char>> slots_;
+    int value_ = 0;
     std::barrier<> meet_;
 };
 
@@ -45,7 +60,10 @@ public:
     ThreadRank(ThreadRanks& ranks, int rank) : ranks_(ranks), rank_(rank) {}
     int rank() const override { return rank_; }
     int size() const override { return ranks_.size(); }
-    std::vector<std::vector<char>> gatherAtRoot(std::vector<char> mine) override { return ranks_.gather(rank_, std::move(mine)); }
+    void gatherAtRoot(const std::vector<char>& mine, std::vector<std::vector<char>>& all) override {
+        ranks_.gather(rank_, mine, all);
+    }
+    int broadcastFromRoot(int value) override { return ranks_.broadcast(rank_, value); }
 
 private:
     ThreadRanks& ranks_;
@@ -76,7 +94,9 @@ TEST(RenderDistributed, RanksGiveBitwiseTheFilmTalliesAndStatisticsOfOneRenderer
     ASSERT_GT(alone.statistics().beams, 0);
     ASSERT_GT(alone.statistics().unguidedPhotons, 0);
 
-    for (int size : {2, 3}) {
+    // (Without a pass limit the other ranks trace a pass ahead that is never sent: the last.)
+    for (const auto& [size, passLimit] : {std::pair{2, 0}, std::pair{3, 0}, std::pair{2, kPasses}}) {
+        SCOPED_TRACE(std::to_string(size) + " ranks, pass limit " + std::to_string(passLimit));
         ThreadRanks ranks(size);
         std::vector<std::unique_ptr<Renderer>> renderers;
         std::vector<std::unique_ptr<ThreadRank>> views;
@@ -84,6 +104,7 @@ TEST(RenderDistributed, RanksGiveBitwiseTheFilmTalliesAndStatisticsOfOneRenderer
             renderers.push_back(std::make_unique<Renderer>(lens, scene.lights, options));
             views.push_back(std::make_unique<ThreadRank>(ranks, r));
             renderers.back()->setExchange(views.back().get());
+            renderers.back()->setPassLimit(passLimit);
         }
         std::vector<std::thread> threads;
         for (int r = 0; r < size; ++r)
@@ -112,6 +133,30 @@ TEST(RenderDistributed, RanksGiveBitwiseTheFilmTalliesAndStatisticsOfOneRenderer
         EXPECT_EQ(b.passes, a.passes);
         for (int r = 1; r < size; ++r) EXPECT_EQ(renderers[r]->statistics().passes, kPasses);
     }
+}
+
+// Every job of a pass is traced by exactly one rank: rank 0 by its share, ⌊jobs · share⌋ of them
+// spread evenly, the others the rest, dealt in turn so that their counts differ by at most one.
+TEST(RenderDistributed, EveryJobHasOneRankAndRankZeroItsShare) {
+    for (int size : {2, 3, 5})
+        for (int share = 0; share <= kShareSteps / size; ++share)
+            for (long jobs : {0L, 1L, 47L, 1040L}) {
+                std::vector<long> count(static_cast<size_t>(size), 0);
+                long rootInFirstHalf = 0;
+                for (long j = 0; j < jobs; ++j) {
+                    const int rank = jobRank(j, share, size);
+                    ASSERT_GE(rank, 0);
+                    ASSERT_LT(rank, size);
+                    ++count[static_cast<size_t>(rank)];
+                    if (rank == 0 && j < jobs / 2) ++rootInFirstHalf;
+                }
+                EXPECT_EQ(count[0], jobs * share / kShareSteps) << size << " " << share << " " << jobs;
+                const auto [least, most] = std::minmax_element(count.begin() + 1, count.end());
+                EXPECT_LE(*most - *least, 1) << size << " " << share << " " << jobs;
+                // Spread: half the jobs hold half of rank 0's, to within one.
+                EXPECT_LE(std::abs(2 * rootInFirstHalf - count[0]), 2) << size << " " << share << " " << jobs;
+            }
+    EXPECT_EQ(jobRank(5, 0, 1), 0);
 }
 
 }  // namespace

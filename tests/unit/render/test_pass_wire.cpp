@@ -1,0 +1,112 @@
+// A beam's record between ranks (PassWire.h): read back, it rasterises bit for bit as the traced
+// beam in every band (its large and small triangles, its ringing rim), though its triangles take
+// less than half the bytes of the whole triangles; a cut record is an error, not a wrong beam.
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "flare/film/Film.h"
+#include "flare/render/BeamStrategy.h"
+#include "flare/render/PassWire.h"
+#include "flare/render/PhotonBatches.h"
+
+namespace flare {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// A disk of `sides` triangles about `centre` (vertices shared exactly, as a mesh gives them) whose
+// irradiance varies over it, and a few small triangles (under a pixel², splatted at points) beside.
+renderer::BeamJob diskJob(const FilmFrame& frame, glm::dvec2 centre, double radiusPx, int sides) {
+    std::vector<BeamTriangle> triangles;
+    auto corner = [&](int k) {
+        const double a = 2.0 * kPi * k / sides;
+        return centre + radiusPx * glm::dvec2(std::cos(a), std::sin(a));
+    };
+    for (int k = 0; k < sides; ++k) {
+        BeamTriangle t;
+        const glm::dvec2 v[3] = {centre, corner(k), corner(k + 1)};
+        for (int c = 0; c < 3; ++c) {
+            t.pupilMm[c] = v[c] * 0.01;
+            t.pixel[c] = v[c];
+            t.throughput[c] = 0.5 + 0.25 * std::sin(v[c].x);
+            t.irradiance[c] = 1.0 + 0.1 * c + 0.01 * k;
+        }
+        t.imageAreaPx2 = 0.5 * std::abs((v[1].x - v[0].x) * (v[2].y - v[0].y) - (v[2].x - v[0].x) * (v[1].y - v[0].y));
+        t.pupilAreaMm2 = t.imageAreaPx2 * 1e-4;
+        triangles.push_back(t);
+    }
+    for (int k = 0; k < 5; ++k) {
+        BeamTriangle t;
+        const glm::dvec2 at = centre + glm::dvec2(radiusPx + 3.0 + 7.3 * k, -20.0 + 11.1 * k);
+        const glm::dvec2 v[3] = {at, at + glm::dvec2(0.6, 0.1), at + glm::dvec2(0.2, 0.7)};
+        for (int c = 0; c < 3; ++c) {
+            t.pupilMm[c] = glm::dvec2(5.0 + k, 5.0 + 0.1 * c);  // (apart from the disk's pupil)
+            t.pixel[c] = v[c];
+            t.throughput[c] = 0.3 + 0.1 * c;
+            t.irradiance[c] = 2.0;
+        }
+        t.imageAreaPx2 = 0.19;
+        t.pupilAreaMm2 = 0.004 + 0.001 * k;
+        t.small = true;
+        triangles.push_back(t);
+    }
+    renderer::BeamJob job;
+    job.beam = GhostBeam::fromTriangles(std::move(triangles), frame, 1234);
+    job.beam.ring(1.7);
+    job.jitterPx = glm::dvec2(0.31, -0.27);
+    job.scale = glm::dvec3(0.9, 1.0, 1.1);
+    job.seed = 0x5eed;
+    job.powerY = 2.5;
+    job.photons = 7;
+    return job;
+}
+
+std::vector<double> bandImage(const renderer::BeamJob& job, const FilmFrame& frame, int band) {
+    std::vector<double> rows(static_cast<size_t>(Film::kBandRows) * frame.widthPx * 3, 0.0);
+    job.beam.rasterise(band, job.jitterPx, job.scale, job.seed, rows.data());
+    return rows;
+}
+
+TEST(PassWire, ABeamReadBackRasterisesBitwiseAsTracedFromLessThanHalfItsTriangles) {
+    const FilmFrame frame{200, 150, 20.0, 15.0, 0.1};
+    const renderer::BeamJob traced = diskJob(frame, glm::dvec2(90.3, 70.6), 45.0, 96);
+    ASSERT_FALSE(traced.beam.rim().empty());
+    std::vector<char> message;
+    renderer::writeBeam(1, traced, message);
+
+    std::vector<renderer::BatchResult> batches;
+    std::vector<renderer::BeamJob> beams(3);
+    const renderer::PassMessage read = renderer::readPassResults(message, frame, batches, beams);
+    EXPECT_EQ(read.jobs, 1);
+    const renderer::BeamJob& copy = beams[1];
+    EXPECT_TRUE(beams[0].beam.empty() && beams[2].beam.empty());
+    EXPECT_EQ(copy.beam.tracedRays(), 1234);
+    EXPECT_EQ(copy.seed, traced.seed);
+    EXPECT_EQ(copy.powerY, traced.powerY);
+    EXPECT_EQ(copy.beam.rim().segmentCount(), traced.beam.rim().segmentCount());
+    bool anyLight = false;
+    for (int band = 0; band < (frame.heightPx + Film::kBandRows - 1) / Film::kBandRows; ++band) {
+        const std::vector<double> a = bandImage(traced, frame, band), b = bandImage(copy, frame, band);
+        EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(double)), 0) << "band " << band;
+        for (double v : a) anyLight = anyLight || v != 0.0;
+    }
+    EXPECT_TRUE(anyLight);
+    // The record, less its rim's segments (as many as the rim's edges: all of this fan's, a few
+    // percent of a real beam's), holds under half the bytes of the whole triangles.
+    const size_t rimBytes = traced.beam.rim().segmentCount() * sizeof(BeamRim::Segment);
+    ASSERT_LT(rimBytes, message.size());
+    EXPECT_LT(message.size() - rimBytes, traced.beam.triangles().size() * sizeof(BeamTriangle) / 2);
+
+    // Cut anywhere, the record is refused.
+    for (size_t cut : {message.size() - 1, message.size() / 2, size_t{9}}) {
+        const std::vector<char> shorter(message.begin(), message.begin() + static_cast<long>(cut));
+        EXPECT_THROW(renderer::readPassResults(shorter, frame, batches, beams), std::runtime_error) << cut;
+    }
+}
+
+}  // namespace
+}  // namespace flare
