@@ -87,7 +87,7 @@ TEST(DistributedCli, OneTwoAndThreeRanksGiveTheImageAndReportOfOneProcess) {
 TEST(DistributedCli, ATargetErrorStopsTwoRanksAfterThePassOfOneProcess) {
     const auto dir = test::freshDir("flare_distributed_cli", "target");
     const std::string scene = test::writeTinyScene(dir);
-    const std::string options = " --photons 6553600 --target-error 0.9 --beams-per-pass 128 --quiet --threads 1";
+    const std::string options = " --photons 26214400 --target-error 0.9 --beams-per-pass 128 --quiet --threads 1";
     auto render = [&](const std::string& launcher, const std::string& name) {
         const test::CliRun r = shell(launcher + "render " + scene + " -o " + (dir / (name + ".exr")).string() +
                                      " --report " + (dir / (name + ".json")).string() + options);
@@ -96,8 +96,9 @@ TEST(DistributedCli, ATargetErrorStopsTwoRanksAfterThePassOfOneProcess) {
     render(std::string(FLARE_CLI_PATH) + " ", "alone");
     render("timeout 120 " + mpirun(2), "r2");  // (a rank left waiting would hang)
     const nlohmann::json alone = reportWithoutTimes(dir / "alone.json");
-    // (Stopped by the target, at the first pass a stop may come after: 8 of the 100 passes.)
-    EXPECT_EQ(alone.at("photons").get<long>(), 8 * 65536L) << alone.dump();
+    // (Stopped by the target, at the first pass a stop may come after: 8 of the 100 guided passes
+    // of 262 144 photons, kGuidedBatchesPerPass.)
+    EXPECT_EQ(alone.at("photons").get<long>(), 8 * 262144L) << alone.dump();
     EXPECT_EQ(reportWithoutTimes(dir / "r2.json"), alone);
     EXPECT_TRUE(bytes(dir / "r2.exr") == bytes(dir / "alone.exr"));
 }
