@@ -32,7 +32,7 @@ namespace flare {
 
 struct DiffractionPsfOptions {
     double coherentFringes = 10.0;  // extent of the exact (coherent) core, in fringes 2π/D
-    int maxSubsamples = 24;         // per pixel side, in the coherent core
+    int maxSubsamples = 24;         // per pixel side near the core (those reaching it are split to ¼ fringe)
 };
 
 // ∫_{−∞}^{z} sinc²(πx) dx (from 0 to 1): the share of a straight edge's spike, across it, that
@@ -85,6 +85,7 @@ public:
 
 private:
     double coherentIntensity(const glm::dvec2& kPerMm) const;  // |F|² from the table
+    glm::dvec3 subcellEnergy(const glm::dvec2& centrePx, double halfPx) const;
     double spikeCellEnergy(const glm::dvec2& alpha, const glm::dvec2& cellAxisA, const glm::dvec2& cellAxisB,
                            double lambdaMm) const;
     double outsideWindowEnergy(int halfPx, int channel) const;
