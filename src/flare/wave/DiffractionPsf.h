@@ -11,7 +11,8 @@
 // transform is used, from a table of F on a grid of eight samples per fringe (bicubic), each
 // pixel integrated over sub-cells of a quarter fringe by the 2 × 2 Gauss–Legendre rule (box
 // pixels; at most maxSubsamples a side, and where that leaves them wider than a fringe, those that
-// reach the core are split again to a quarter fringe); further out, the fringe-averaged asymptote (ApertureTransform::incoherentIntensity):
+// reach the core are split again to half a fringe); further out, the fringe-averaged asymptote
+// (ApertureTransform::incoherentIntensity):
 // the spikes integrated across each pixel exactly (the cumulative of sinc²), the corners'
 // interference (its profile across a spike likewise), the halo; the two are blended over the
 // last 30 % of the coherent range. The model's total energy is computed (the pixels of the window plus the

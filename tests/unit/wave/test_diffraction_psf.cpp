@@ -312,12 +312,12 @@ TEST(ApertureTransform, AsymptoteIsTheFringeAverageOfThePolygonsTransform) {
 // frame) puts 0.03 px in a fringe, the whole exact core (ten fringes) inside the centre pixel.
 // The pixel's sub-cells (at most maxSubsamples = 24 a side) were then wider than the peak, and
 // their 2 × 2 Gauss nodes misjudged its energy (the model's total 1.19 in Z on that scene); the
-// sub-cells that reach the core are now split to a quarter fringe. The Airy pattern's centre
+// sub-cells that reach the core are now split to half a fringe. The Airy pattern's centre
 // pixel, 30 λN wide, against its exact energy: the encircled energy 1 − J0² − J1² of the
 // inscribed circle plus, by symmetry, the eight half-corners' wedges between it and the square.
 // The model is exact to 7 fringes (0.23 px) and beyond it the fringe average of the curved
 // outline, good to 1/(kρ) = 1/(7π) = 4.5 % of the energy beyond (2/(π kρ) = 2.9 %): 1.3e-3.
-// Tolerance 2e-3 (measured: −3.8e-4). Before the split the pixel held 1.088.
+// Tolerance 2e-3 (measured: −4.3e-4). Before the split the pixel held 1.088.
 TEST(DiffractionPsf, FringesMuchFinerThanAPixelKeepTheCentrePixelsEnergy) {
     const double lambdaNm = 550.0, radius = 1.0, focal = 100.0;
     const double lambdaN = lambdaNm * 1e-6 * focal / (2.0 * radius);
@@ -345,7 +345,7 @@ TEST(DiffractionPsf, FringesMuchFinerThanAPixelKeepTheCentrePixelsEnergy) {
 // a spectrum over 400–700 nm): the model's total energy before normalisation is within the
 // model's stated 2 % of Parseval's 1 (it was 16 % off in X), and within 1e-3 of the same pupil's
 // on pixels a sixteenth the size (0.5 px per fringe, where 24 sub-cells a side reach a quarter
-// fringe with no second split): the pixel size changes only the quadrature (measured: 1.4–2.2e-4).
+// fringe with no second split): the pixel size changes only the quadrature (measured: 2.1–3.0e-4).
 TEST(DiffractionPsf, ModelEnergyOnPixelsManyFringesWideIsParsevals) {
     const double focal = 50.0, pixel = 36.0 / 768.0;
     const ApertureTransform aperture(irisOutline(Iris(6, 0.2, 0.3, focal / 2.8 / 2.0)));
