@@ -10,7 +10,9 @@
 // Near the centre (|k| up to `coherentFringes` fringes of the aperture, 2π/D each) the exact
 // transform is used, from a table of F on a grid of eight samples per fringe (bicubic), each
 // pixel integrated over sub-cells of a quarter fringe by the 2 × 2 Gauss–Legendre rule (box
-// pixels); further out, the fringe-averaged asymptote (ApertureTransform::incoherentIntensity):
+// pixels; at most maxSubsamples a side, and where that leaves them wider than a fringe, those that
+// reach the core are split again to half a fringe); further out, the fringe-averaged asymptote
+// (ApertureTransform::incoherentIntensity):
 // the spikes integrated across each pixel exactly (the cumulative of sinc²), the corners'
 // interference (its profile across a spike likewise), the halo; the two are blended over the
 // last 30 % of the coherent range. The model's total energy is computed (the pixels of the window plus the
@@ -32,7 +34,7 @@ namespace flare {
 
 struct DiffractionPsfOptions {
     double coherentFringes = 10.0;  // extent of the exact (coherent) core, in fringes 2π/D
-    int maxSubsamples = 24;         // per pixel side, in the coherent core
+    int maxSubsamples = 24;         // per pixel side near the core (see cellEnergy: wider than a fringe, split)
 };
 
 // ∫_{−∞}^{z} sinc²(πx) dx (from 0 to 1): the share of a straight edge's spike, across it, that
@@ -85,6 +87,7 @@ public:
 
 private:
     double coherentIntensity(const glm::dvec2& kPerMm) const;  // |F|² from the table
+    void addSubcellEnergy(const glm::dvec2& centrePx, double halfPx, glm::dvec3& energy) const;
     double spikeCellEnergy(const glm::dvec2& alpha, const glm::dvec2& cellAxisA, const glm::dvec2& cellAxisB,
                            double lambdaMm) const;
     double outsideWindowEnergy(int halfPx, int channel) const;
