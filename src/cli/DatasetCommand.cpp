@@ -78,7 +78,8 @@ void renderImage(const DatasetSpec& spec, int k, const std::filesystem::path& di
     OutputFiles outputs;
     outputs.add(exr, "image");
     outputs.add(json, "image JSON");
-    ExrWriteOptions exrOptions{.storage = {}, .compression = ExrCompression::Piz, .ownParts = {}};
+    ExrWriteOptions exrOptions;
+    exrOptions.compression = ExrCompression::Piz;
     for (const ImageLayer& layer : layers)
         if (layer.name.starts_with("ghost_")) exrOptions.ownParts.insert(layer.name);
     writeExr(outputs, exr, layers,
