@@ -115,16 +115,18 @@ void Renderer::runDistributedPass() {
     };
 
     if (rank != 0) {
-        // Every rank draws the pass's beam jobs (their counts and sequence points follow from the
-        // seed and the passes before), so that job j is the same job on every rank.
-        if (!d.ahead) {
+        // The pass's beam jobs drawn, and this rank's share traced and timed.
+        auto drawAndTraceShare = [&] {
             d.beamJobs = drawBeamJobs();
             const auto traceStart = std::chrono::steady_clock::now();
             const double cpuStart = renderer::cpuSeconds();
             traceShare(d.beamJobs, d.rootShare);
             d.traceS = renderer::secondsSince(traceStart);
             d.traceCpuS = renderer::cpuSeconds() - cpuStart;
-        }
+        };
+        // Every rank draws the pass's beam jobs (their counts and sequence points follow from the
+        // seed and the passes before), so that job j is the same job on every rank.
+        if (!d.ahead) drawAndTraceShare();
         const int beams = static_cast<int>(d.beamJobs.size());
         const auto encodeStart = std::chrono::steady_clock::now();
         const double encodeCpuStart = renderer::cpuSeconds();
@@ -143,14 +145,7 @@ void Renderer::runDistributedPass() {
         ++statistics_.passes;
         // The next pass's share, now, while rank 0 merges this one.
         d.ahead = passLimit_ <= 0 || statistics_.passes < passLimit_;
-        if (d.ahead) {
-            d.beamJobs = drawBeamJobs();
-            const auto traceStart = std::chrono::steady_clock::now();
-            const double cpuStart = renderer::cpuSeconds();
-            traceShare(d.beamJobs, d.rootShare);
-            d.traceS = renderer::secondsSince(traceStart);
-            d.traceCpuS = renderer::cpuSeconds() - cpuStart;
-        }
+        if (d.ahead) drawAndTraceShare();
         statistics_.seconds += renderer::secondsSince(start);
         return;
     }

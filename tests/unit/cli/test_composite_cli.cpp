@@ -233,16 +233,21 @@ TEST(CompositeCli, AnAcesCgPlateRoundTripsItsColourSpace) {
     }
 }
 
+// A 3 × 3 matrix as an OpenColorIO MatrixTransform's 16 values (row-major 4 × 4).
+std::string ocioMatrix(const glm::dmat3& m) {
+    std::string out;
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) out += std::to_string(m[c][r]) + ", ";
+        out += "0, ";
+    }
+    return out + "0, 0, 0, 1";
+}
+
 // A colour space named in a user's OpenColorIO config ($OCIO): a matrix space is used (here
 // ACEScg under another name: the same flare as the ACEScg plate), a non-linear one refused.
 TEST(CompositeCli, ColourSpacesFromAnOcioConfig) {
     const PlateColourSpace aces = resolveColourSpace("ACEScg");
-    std::string matrix;
-    for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) matrix += std::to_string(aces.toXyz[c][r]) + ", ";
-        matrix += "0, ";
-    }
-    matrix += "0, 0, 0, 1";
+    const std::string matrix = ocioMatrix(aces.toXyz);
     const std::string config = path("config.ocio");
     std::ofstream(config) << "ocio_profile_version: 2\n"
                              "roles:\n  default: xyz\n  scene_linear: studio_cg\n  cie_xyz_d65_interchange: xyz\n"
@@ -282,13 +287,7 @@ TEST(CompositeCli, ColourSpacesFromAnOcioConfig) {
 // linear Rec.709 value, clamped), against the composite the EXR holds times the exposure; an
 // unknown display or view, a display without $OCIO or without --png, exit 2 naming it.
 TEST(CompositeCli, ThePngThroughAnOcioDisplayAndView) {
-    std::string fromXyz;  // XYZ → linear Rec.709, halved (row-major 4 × 4)
-    const glm::dmat3 m = xyzToLinearSrgbMatrix();
-    for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) fromXyz += std::to_string(0.5 * m[c][r]) + ", ";
-        fromXyz += "0, ";
-    }
-    fromXyz += "0, 0, 0, 1";
+    const std::string fromXyz = ocioMatrix(0.5 * glm::dmat3(xyzToLinearSrgbMatrix()));  // halved
     const std::string config = path("display.ocio");
     std::ofstream(config) << "ocio_profile_version: 2\n"
                              "roles:\n  default: xyz\n  scene_linear: xyz\n  cie_xyz_d65_interchange: xyz\n"
