@@ -228,13 +228,16 @@ std::string readTransform(Cursor& c, const std::string& where) {
         } else {
             c.fail(where + ": unknown transform type \"" + printable(type) + "\"");
         }
+        // Inside the try: Transform simplifies an affine map into a scale map where it can, and
+        // that map checks its scales again (a matrix the affine map accepts can have a diagonal
+        // too small for the scale map: tests/data/fuzz/vdb/affine-map-simplifies-to-zero-scale.vdb).
+        std::ostringstream out;
+        openvdb::math::Transform(map).write(out);
+        return out.str();
     } catch (const openvdb::ArithmeticError& e) {
         // The maps' own checks: scales near zero, a singular or non-affine matrix.
         c.fail(where + ": its transform is degenerate (" + std::string(e.what()) + ")");
     }
-    std::ostringstream out;
-    openvdb::math::Transform(map).write(out);
-    return out.str();
 }
 
 // A node's mask of N bits, as OpenVDB stores it (64-bit words, bit i of word i / 64).
