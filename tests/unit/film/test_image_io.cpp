@@ -257,6 +257,49 @@ TEST_F(ImageIOTest, NegativeDataWindowOriginReadsPixelsInPlace) {
     EXPECT_EQ(back[0].rgb, expected);
 }
 
+// A header may declare any window; readExr refuses a data window or a frame (display window) of
+// more than kMaxExrFramePixels before it allocates their buffers (3 × 4 bytes a pixel, over 3 GB
+// at the limit), naming the sizes. The files hold a header and no pixels: OpenEXR writes its
+// offset table and stops, so they are a few hundred kilobytes.
+TEST_F(ImageIOTest, WindowBeyondTheFrameLimitIsRefused) {
+    // 32 768 × 8 193 = 2^28 + 32 768 pixels: just beyond the limit.
+    const Imath::Box2i small(Imath::V2i(0, 0), Imath::V2i(3, 3));
+    const Imath::Box2i huge(Imath::V2i(0, 0), Imath::V2i(32767, 8192));
+    ASSERT_GT(32768LL * 8193LL, kMaxExrFramePixels);
+    for (const auto& [name, display, data] : {std::tuple{"data.exr", small, huge}, std::tuple{"frame.exr", huge, small}}) {
+        {
+            Imf::Header header(display, data);
+            for (const char* channel : {"R", "G", "B"}) header.channels().insert(channel, Imf::Channel(Imf::FLOAT));
+            Imf::OutputFile file(path(name).c_str(), header);  // closed with no pixels written
+        }
+        try {
+            readExr(path(name));
+            ADD_FAILURE() << name << " was read";
+        } catch (const InputError& e) {
+            const std::string message = e.what();
+            EXPECT_NE(message.find("32768 × 8193 pixels (at most " + std::to_string(kMaxExrFramePixels) + ")"),
+                      std::string::npos)
+                << message;
+        }
+    }
+}
+
+// An 87-byte file from the exr fuzz target: its channel list holds a channel with an x sampling of
+// 1 and a y sampling of 0, and OpenEXR's C++ reader, reading the list past its declared size, took
+// a later attribute's size from the wrong bytes and allocated 1.6 GB for it. The headers are now
+// parsed by OpenEXR's C core first, which refuses the channel list, so the C++ reader never sees it.
+TEST_F(ImageIOTest, HeaderTheCoreRefusesNeverReachesTheReader) {
+    const std::string file = std::string(FLARE_SOURCE_DIR) + "/tests/data/fuzz/exr/channel-list-read-past-its-size.exr";
+    try {
+        readExr(file);
+        ADD_FAILURE() << "read";
+    } catch (const InputError& e) {
+        const std::string message = e.what();
+        EXPECT_NE(message.find("channel-list-read-past-its-size.exr"), std::string::npos) << message;
+        EXPECT_NE(message.find("Invalid pixel sampling"), std::string::npos) << message;
+    }
+}
+
 TEST_F(ImageIOTest, NonFiniteValuesAndMismatchedLayersAreRejected) {
     for (float bad : {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(),
                       -std::numeric_limits<float>::infinity()}) {
