@@ -10,6 +10,7 @@
 #include "flare/core/FresnelIntegrals.h"
 #include "flare/core/RoundingClones.h"
 #include "flare/film/Film.h"
+#include "flare/render/BeamRimRow.h"
 
 namespace flare {
 
@@ -173,7 +174,6 @@ void BeamRim::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3& 
                         double* rows) const {
     const int bands = static_cast<int>(bandStart_.size()) - 1;
     if (segments_.empty() || band < 0 || band >= bands) return;
-    const FresnelEdgeExcess& excess = FresnelEdgeExcess::instance();
     const double inverseScale = 1.0 / edgeScalePx_;
     const double reach = FresnelEdgeExcess::kReach * edgeScalePx_;
     const int rowBegin = band * Film::kBandRows, rowEnd = std::min(heightPx, rowBegin + Film::kBandRows);
@@ -212,26 +212,15 @@ void BeamRim::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3& 
             if (!(lo <= hi)) continue;
             const int first = std::max(c0, static_cast<int>(std::max(std::ceil(lo - 0.5 - jitterPx.x) - 1.0, -1e9)));
             const int last = std::min(c1, static_cast<int>(std::min(std::floor(hi - 0.5 - jitterPx.x) + 1.0, 1e9)));
-            double* q = rows + (static_cast<size_t>(row - rowBegin) * widthPx + first) * 3;
-            for (int column = first; column <= last; ++column, q += 3) {
-                const glm::dvec2 p(column + 0.5 + jitterPx.x, row + 0.5 + jitterPx.y);
-                const glm::dvec2 fromA = p - s.a;
-                const double across = glm::dot(fromA, s.inward);
-                if (!(std::abs(across) < reach)) continue;
-                if (cross(s.bisectorA, fromA) * s.sideA < 0.0 || cross(s.bisectorB, p - s.b) * s.sideB <= 0.0) continue;
-                // The distance to the segment (to its end beyond it, in the fan of a corner: the
-                // rim's mesh vertices carry small placement errors, and the distance to a line
-                // through two close ones would swing with them), signed by the side.
-                const double alongPx = glm::dot(fromA, s.along);
-                const double t = std::clamp(alongPx / s.length, 0.0, 1.0);
-                const double beyond = alongPx - t * s.length;
-                const double u = std::copysign(std::sqrt(across * across + beyond * beyond), across) * inverseScale;
-                if (!(std::abs(u) < FresnelEdgeExcess::kReach)) continue;
-                const double value = ((1.0 - t) * s.irradianceA + t * s.irradianceB) * excess(u);
-                q[0] += value * scale.x;
-                q[1] += value * scale.y;
-                q[2] += value * scale.z;
-            }
+            // The pixels themselves, several at a time (BeamRimRow.h: the same arithmetic).
+            detail::RimRowSpan span;
+            span.y = y;
+            span.jitterX = jitterPx.x;
+            span.first = first;
+            span.last = last;
+            span.reach = reach;
+            span.inverseScale = inverseScale;
+            detail::addRimRow(s, span, scale, rows + (static_cast<size_t>(row - rowBegin) * widthPx + first) * 3);
         }
     }
 }
