@@ -6,7 +6,7 @@
 // each), and a large defocused ghost has a long rim. Every operation is the scalar loop's, in its
 // order (BeamRimRow.cpp is compiled with -ffp-contract=off: no fused multiply-adds, which baseline
 // x86-64 code never has), and a pixel the scalar loop skips is left untouched, so the film gets
-// the same bits either way (test_beam_rim.cpp compares them).
+// the same bits either way (test_beam_rows.cpp compares them).
 #pragma once
 
 #include <glm/vec3.hpp>

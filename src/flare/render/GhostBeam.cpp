@@ -13,6 +13,7 @@
 #include "flare/core/RoundingClones.h"
 #include "flare/film/Film.h"
 #include "flare/ghosts/KeyIndex.h"
+#include "flare/render/BeamTriangleRow.h"
 
 namespace flare {
 
@@ -479,14 +480,9 @@ void GhostBeam::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3
             const double xl = std::min(along, across), xr = std::max(along, across);
             const int c1 = std::max(columnLo, static_cast<int>(std::ceil(xl - 0.5)));
             const int c2 = std::min(columnHi, static_cast<int>(std::ceil(xr - 0.5)) - 1);
-            const double rowValue = c0 + gy * y;
-            double* q = rows + (static_cast<size_t>(row - rowBegin) * width + c1) * 3;
-            for (int column = c1; column <= c2; ++column, q += 3) {
-                const double e = rowValue + gx * (column + 0.5);
-                q[0] += e * scale.x;
-                q[1] += e * scale.y;
-                q[2] += e * scale.z;
-            }
+            // The span's pixels, several values at a time (BeamTriangleRow.h: the same arithmetic).
+            if (c1 <= c2)
+                detail::addTriangleRow(c0 + gy * y, gx, c1, c2, scale, rows + (static_cast<size_t>(row - rowBegin) * width + c1) * 3);
         }
     }
     rim_.rasterise(band, jitterPx, scale, width, height, rows);

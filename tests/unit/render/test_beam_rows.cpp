@@ -1,8 +1,10 @@
-// The rim's SIMD row (BeamRimRow.h) against its scalar loop, bit for bit, on every instruction set
-// this processor runs and Highway compiled: random segments (every wedge orientation and side),
-// rows crossing them at every distance, spans of every length modulo the lane count, and a row
-// that already holds values (−0 among them: a pixel the scalar loop skips must stay −0, not become
-// +0 by adding a zero). A whole rim's rasterisation is compared too.
+// The beams' SIMD rows against their scalar loops, bit for bit, on every instruction set this
+// processor runs and Highway compiled. The rim's (BeamRimRow.h): random segments (every wedge
+// orientation and side), rows crossing them at every distance, spans of every length modulo the
+// lane count, and a row that already holds values (−0 among them: a pixel the scalar loop skips
+// must stay −0, not become +0 by adding a zero); a whole rim's rasterisation too. The triangles'
+// (BeamTriangleRow.h): spans of every length from 0 to several registers, planes of every slope,
+// and the values beyond the span untouched.
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -17,6 +19,7 @@
 #include "flare/core/Random.h"
 #include "flare/render/BeamRim.h"
 #include "flare/render/BeamRimRow.h"
+#include "flare/render/BeamTriangleRow.h"
 
 namespace flare {
 namespace {
@@ -26,6 +29,7 @@ void forEachTarget(Body body) {
     for (const std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
         hwy::SetSupportedTargetsForTest(target);
         ASSERT_STREQ(detail::rimRowTargetName(), hwy::TargetName(target));
+        ASSERT_STREQ(detail::triangleRowTargetName(), hwy::TargetName(target));
         body(std::string(hwy::TargetName(target)));
     }
     hwy::SetSupportedTargetsForTest(0);
@@ -127,6 +131,33 @@ TEST(BeamRimRow, WholeRimIsTheSameOnEveryInstructionSet) {
             EXPECT_GT(ringing, 10.0);  // the rim rings
         }
         for (size_t i = 0; i < film.size(); ++i) ASSERT_TRUE(sameBits(film[i], reference[i])) << target << " at " << i;
+    });
+}
+
+TEST(BeamTriangleRow, SameBitsAsTheScalarLoopOnEveryInstructionSet) {
+    forEachTarget([](const std::string& target) {
+        Rng rng(1207, 0);
+        long compared = 0;
+        for (int trial = 0; trial < 4000; ++trial) {
+            const int first = static_cast<int>(2000.0 * rng.uniform());
+            const int count = trial % 41;  // 0 … 40 pixels: every remainder of every lane count
+            const int last = first + count - 1;
+            // A plane as a triangle gives one: any sign and slope, the value at large columns
+            // from a large constant cancelling (what rounding exposes).
+            const double gx = (rng.uniform() - 0.5) * std::pow(10.0, 4.0 * rng.uniform() - 3.0);
+            const double rowValue = -gx * (first + count * rng.uniform()) + (rng.uniform() - 0.3);
+            const glm::dvec3 scale(rng.uniform(), 0.5 + rng.uniform(), 1e-3 * rng.uniform());
+            // Two pixels of margin on either side, which must stay as they are.
+            std::vector<double> simd(static_cast<size_t>(count + 4) * 3);
+            for (double& v : simd) v = rng.uniform() < 0.2 ? -0.0 : rng.uniform() - 0.5;
+            std::vector<double> scalar = simd;
+            detail::addTriangleRow(rowValue, gx, first, last, scale, simd.data() + 6);
+            detail::addTriangleRowScalar(rowValue, gx, first, last, scale, scalar.data() + 6);
+            for (size_t i = 0; i < simd.size(); ++i, ++compared)
+                ASSERT_TRUE(sameBits(simd[i], scalar[i]))
+                    << target << ": trial " << trial << " value " << i << ": " << simd[i] << " vs " << scalar[i];
+        }
+        EXPECT_GT(compared, 250000) << target;
     });
 }
 
