@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include <glm/geometric.hpp>
+#include <tbb/parallel_invoke.h>
 #include <tbb/task_group.h>
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -118,11 +119,19 @@ ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGh
     ScenePreview result;
     result.widthPx = options.film.widthPx;
     result.heightPx = options.film.heightPx;
-    result.ghosts = renderer.layerXyz(kLayerGhost);
-    if (budget.higher) result.higher = renderer.layerXyz(kLayerHigher);
+    // The layers read out (one thread: Film::irradianceXyz) beside the error estimate (its own
+    // parallel loop); both only read the film.
+    tbb::parallel_invoke(
+        [&] {
+            result.ghosts = renderer.layerXyz(kLayerGhost);
+            if (budget.higher) result.higher = renderer.layerXyz(kLayerHigher);
+        },
+        [&] {
+            result.ghostEstimatedError =
+                renderer.hasErrorEstimate() ? renderer.estimatedRelativeError(kGroupGhost) : 0.0;
+        });
     result.passes = renderer.statistics().passes;
     result.beams = renderer.statistics().beams;
-    result.ghostEstimatedError = renderer.hasErrorEstimate() ? renderer.estimatedRelativeError(kGroupGhost) : 0.0;
     if (perGhostLayers) {
         // The kept ghosts' own layers (the order-4 chains' only with `higher`).
         std::set<std::string> chains;
