@@ -41,6 +41,10 @@ public:
     }
     // The constant added (for tests).
     double offset() const { return offset_; }
+    // The table operator() interpolates: straightEdgeIntensity at u = −kReach + i / samplesPerUnit()
+    // (for a vector version that repeats its arithmetic, BeamRimRow.h).
+    const double* table() const { return intensity_.data(); }
+    static constexpr int samplesPerUnit() { return kSamplesPerUnit; }
 
     // What a light's apparent extent leaves of the ripples. A light of apparent disk radius α
     // moves a rim by G·α (G: the rim's shift per radian, GhostRinging.h) about its mean place, its

@@ -1,6 +1,7 @@
 // Lattice keys to indices for the pupil mesher: open addressing with linear probing, faster than
 // std::unordered_map for the mesher's many small lookups (the 4 × 4 blocks around each cell
-// judged). Keys are 64-bit lattice or edge keys; ~0 is reserved.
+// judged), and for the beams' vertices and rim edges. Keys are 64-bit lattice, edge or hashed keys;
+// ~0 is reserved (keyIndexKey).
 #pragma once
 
 #include <cstddef>
@@ -56,5 +57,9 @@ private:
     size_t size_ = 0;
     int shift_ = 64 - 6;  // 64 − log2(capacity)
 };
+
+// A hashed key made storable: the reserved ~0 becomes its neighbour (two hashes that meet there
+// are then one key, as two that collide anyway are).
+inline std::uint64_t keyIndexKey(std::uint64_t hashed) { return hashed == ~std::uint64_t{0} ? hashed - 1 : hashed; }
 
 }  // namespace flare

@@ -3,13 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <unordered_map>
 
 #include <glm/geometric.hpp>
 
 #include "flare/core/FresnelIntegrals.h"
 #include "flare/core/RoundingClones.h"
 #include "flare/film/Film.h"
+#include "flare/ghosts/KeyIndex.h"
+#include "flare/render/BeamRimRow.h"
 
 namespace flare {
 
@@ -38,16 +39,21 @@ BeamRim BeamRim::build(const std::vector<RimTriangle>& triangles, double edgeSca
     BeamRim rim;
     rim.edgeScalePx_ = edgeScalePx;
     if (!(edgeScalePx > 0.0) || triangles.empty()) return rim;
-    // Vertex ids, and how many triangles hold each edge.
-    std::unordered_map<std::uint64_t, int> idOf;
+    // Vertex ids, and how many triangles hold each edge (open addressing, KeyIndex: node-based
+    // maps' allocations cost more than the rim's own work).
+    KeyIndex idOf;
+    int vertexCount = 0;
     auto id = [&](const glm::dvec2& p) {
-        return idOf.try_emplace(vertexKey(p), static_cast<int>(idOf.size())).first->second;
+        const auto [vertex, inserted] = idOf.emplace(keyIndexKey(vertexKey(p)), vertexCount);
+        if (inserted) ++vertexCount;
+        return vertex;
     };
     struct EdgeUse {
         int count = 0;
         int triangle = 0, corner = 0;  // the first triangle holding it: edge corner → corner + 1
     };
-    std::unordered_map<std::uint64_t, EdgeUse> edges;
+    KeyIndex edgeOf;  // (smaller id, larger id) → its EdgeUse (never ~0: ids are below 2³¹)
+    std::vector<EdgeUse> edges;
     std::vector<std::array<int, 3>> ids(triangles.size());
     for (size_t n = 0; n < triangles.size(); ++n)
         for (int k = 0; k < 3; ++k) ids[n][k] = id(triangles[n].v[k].pupilMm);
@@ -56,12 +62,13 @@ BeamRim BeamRim::build(const std::vector<RimTriangle>& triangles, double edgeSca
             const int i = ids[n][k], j = ids[n][(k + 1) % 3];
             if (i == j) continue;
             const std::uint64_t key = (static_cast<std::uint64_t>(std::min(i, j)) << 32) | static_cast<std::uint32_t>(std::max(i, j));
-            EdgeUse& use = edges[key];
-            if (use.count++ == 0) use.triangle = static_cast<int>(n), use.corner = k;
+            const auto [edge, inserted] = edgeOf.emplace(key, static_cast<int>(edges.size()));
+            if (inserted) edges.push_back({0, static_cast<int>(n), k});
+            ++edges[edge].count;
         }
     // The rim's segments, in a fixed order (the triangles' and their corners').
     std::vector<std::pair<int, int>> rimEdges;  // (triangle, corner)
-    for (const auto& [key, use] : edges)
+    for (const EdgeUse& use : edges)
         if (use.count == 1 && !triangles[use.triangle].small) rimEdges.emplace_back(use.triangle, use.corner);
     std::sort(rimEdges.begin(), rimEdges.end());
     // Just beyond the edge's middle, in the pupil: covered where the edge meets finer cells.
@@ -73,7 +80,13 @@ BeamRim BeamRim::build(const std::vector<RimTriangle>& triangles, double edgeSca
         return covered(0.5 * (a + b) + 1e-6 * outward);
     });
     std::vector<std::array<int, 2>> ends;  // vertex ids of each segment's a and b
-    std::unordered_map<int, std::vector<int>> atVertex;
+    // Per vertex: how many segments end there, and the first two.
+    std::vector<int> endsAt(static_cast<size_t>(vertexCount), 0);
+    std::vector<std::array<int, 2>> firstAt(static_cast<size_t>(vertexCount), {-1, -1});
+    auto addEnd = [&](int vertex, int segment) {
+        if (endsAt[vertex] < 2) firstAt[vertex][endsAt[vertex]] = segment;
+        ++endsAt[vertex];
+    };
     for (const auto& [n, k] : rimEdges) {
         const RimTriangle& t = triangles[n];
         const RimVertex &a = t.v[k], &b = t.v[(k + 1) % 3], &c = t.v[(k + 2) % 3];
@@ -97,8 +110,8 @@ BeamRim BeamRim::build(const std::vector<RimTriangle>& triangles, double edgeSca
         const int index = static_cast<int>(rim.segments_.size());
         rim.segments_.push_back(s);
         ends.push_back({ids[n][k], ids[n][(k + 1) % 3]});
-        atVertex[ends.back()[0]].push_back(index);
-        atVertex[ends.back()[1]].push_back(index);
+        addEnd(ends.back()[0], index);
+        addEnd(ends.back()[1], index);
     }
     // Each end's bisector: where the rim turns at a vertex shared by two segments, the line
     // halfway between their normals; elsewhere (an open end, a vertex where the rim touches
@@ -108,8 +121,8 @@ BeamRim BeamRim::build(const std::vector<RimTriangle>& triangles, double edgeSca
     for (size_t i = 0; i < rim.segments_.size(); ++i) {
         Segment& s = rim.segments_[i];
         auto bisector = [&](int vertex) {
-            const std::vector<int>& at = atVertex[vertex];
-            if (at.size() != 2) return s.inward;
+            if (endsAt[vertex] != 2) return s.inward;
+            const std::array<int, 2>& at = firstAt[vertex];
             const Segment& other = rim.segments_[at[0] == static_cast<int>(i) ? at[1] : at[0]];
             const glm::dvec2 sum = s.inward + other.inward;
             const double norm = glm::length(sum);
@@ -173,7 +186,6 @@ void BeamRim::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3& 
                         double* rows) const {
     const int bands = static_cast<int>(bandStart_.size()) - 1;
     if (segments_.empty() || band < 0 || band >= bands) return;
-    const FresnelEdgeExcess& excess = FresnelEdgeExcess::instance();
     const double inverseScale = 1.0 / edgeScalePx_;
     const double reach = FresnelEdgeExcess::kReach * edgeScalePx_;
     const int rowBegin = band * Film::kBandRows, rowEnd = std::min(heightPx, rowBegin + Film::kBandRows);
@@ -212,26 +224,15 @@ void BeamRim::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3& 
             if (!(lo <= hi)) continue;
             const int first = std::max(c0, static_cast<int>(std::max(std::ceil(lo - 0.5 - jitterPx.x) - 1.0, -1e9)));
             const int last = std::min(c1, static_cast<int>(std::min(std::floor(hi - 0.5 - jitterPx.x) + 1.0, 1e9)));
-            double* q = rows + (static_cast<size_t>(row - rowBegin) * widthPx + first) * 3;
-            for (int column = first; column <= last; ++column, q += 3) {
-                const glm::dvec2 p(column + 0.5 + jitterPx.x, row + 0.5 + jitterPx.y);
-                const glm::dvec2 fromA = p - s.a;
-                const double across = glm::dot(fromA, s.inward);
-                if (!(std::abs(across) < reach)) continue;
-                if (cross(s.bisectorA, fromA) * s.sideA < 0.0 || cross(s.bisectorB, p - s.b) * s.sideB <= 0.0) continue;
-                // The distance to the segment (to its end beyond it, in the fan of a corner: the
-                // rim's mesh vertices carry small placement errors, and the distance to a line
-                // through two close ones would swing with them), signed by the side.
-                const double alongPx = glm::dot(fromA, s.along);
-                const double t = std::clamp(alongPx / s.length, 0.0, 1.0);
-                const double beyond = alongPx - t * s.length;
-                const double u = std::copysign(std::sqrt(across * across + beyond * beyond), across) * inverseScale;
-                if (!(std::abs(u) < FresnelEdgeExcess::kReach)) continue;
-                const double value = ((1.0 - t) * s.irradianceA + t * s.irradianceB) * excess(u);
-                q[0] += value * scale.x;
-                q[1] += value * scale.y;
-                q[2] += value * scale.z;
-            }
+            // The pixels themselves, several at a time (BeamRimRow.h: the same arithmetic).
+            detail::RimRowSpan span;
+            span.y = y;
+            span.jitterX = jitterPx.x;
+            span.first = first;
+            span.last = last;
+            span.reach = reach;
+            span.inverseScale = inverseScale;
+            detail::addRimRow(s, span, scale, rows + (static_cast<size_t>(row - rowBegin) * widthPx + first) * 3);
         }
     }
 }

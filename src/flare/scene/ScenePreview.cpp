@@ -7,6 +7,8 @@
 #include <numbers>
 
 #include <glm/geometric.hpp>
+#include <tbb/parallel_invoke.h>
+#include <tbb/task_group.h>
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
@@ -66,29 +68,70 @@ ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGh
     options.tracePhotons = false;
     options.beamsPerPass = budget.beamsPerPass > 0 ? budget.beamsPerPass : std::max(16, options.beamsPerPass / 2);
     Renderer renderer(lens, scene.lights, options);
+
+    // Each light's own image (the mesh preview of its direct path alone) and its diffraction need
+    // only the analysis: they are computed beside the beams' passes, not after them. Two cores then
+    // stay busy through the passes' serial stretches (the merge's last bands, the film's end of
+    // pass) and the mesh preview's serial part, which otherwise delayed the writing. Each is
+    // deterministic on its own, so the image is the same bits whatever runs beside it.
+    std::vector<GhostReport> directReports;
+    for (size_t l = 0; l < scene.lights.size(); ++l) {
+        directReports.push_back(renderer.ghostReport(static_cast<int>(l)));
+        for (GhostEstimate& g : directReports.back().ghosts) g.pruned = true;
+    }
+    std::vector<float> directXyz;
+    std::optional<StarburstImage> starburst;
+    tbb::task_group beside;
+    beside.run([&] {
+        PreviewOptions direct;
+        direct.widthPx = options.film.widthPx;
+        direct.heightPx = options.film.heightPx;
+        for (size_t l = 0; l < scene.lights.size(); ++l) {
+            const PreviewImage image =
+                renderPreview(lens, previewLight(scene.lights[l], scene.render.previewWavelengths), directReports[l], direct);
+            add(directXyz, image.direct.xyz);
+        }
+        if (scene.render.diffraction)
+            starburst = sceneStarburst(scene, lens, directXyz, options.film.widthPx, options.film.heightPx);
+    });
+    // The passes (their own exceptions are rethrown after the side work has stopped: it reads the
+    // lens and the scene, which outlive neither).
     const int replicates = std::max(1, renderer.film().replicates());
     double passS = 0.0;
-    for (int pass = 0;; ++pass) {
-        if (budget.timeS > 0.0) {
-            // Whole passes that end within the budget, and one per replicate at least (the
-            // error estimate); each pass costs about what the last one did.
-            if (pass >= replicates && elapsedS() + passS > budget.timeS) break;
-        } else if (pass >= std::max(budget.passes, 1)) {
-            break;
+    try {
+        for (int pass = 0;; ++pass) {
+            if (budget.timeS > 0.0) {
+                // Whole passes that end within the budget, and one per replicate at least (the
+                // error estimate); each pass costs about what the last one did.
+                if (pass >= replicates && elapsedS() + passS > budget.timeS) break;
+            } else if (pass >= std::max(budget.passes, 1)) {
+                break;
+            }
+            const double before = elapsedS();
+            renderer.runPass();
+            passS = elapsedS() - before;
         }
-        const double before = elapsedS();
-        renderer.runPass();
-        passS = elapsedS() - before;
+    } catch (...) {
+        beside.wait();
+        throw;
     }
 
     ScenePreview result;
     result.widthPx = options.film.widthPx;
     result.heightPx = options.film.heightPx;
-    result.ghosts = renderer.layerXyz(kLayerGhost);
-    if (budget.higher) result.higher = renderer.layerXyz(kLayerHigher);
+    // The layers read out (one thread: Film::irradianceXyz) beside the error estimate (its own
+    // parallel loop); both only read the film.
+    tbb::parallel_invoke(
+        [&] {
+            result.ghosts = renderer.layerXyz(kLayerGhost);
+            if (budget.higher) result.higher = renderer.layerXyz(kLayerHigher);
+        },
+        [&] {
+            result.ghostEstimatedError =
+                renderer.hasErrorEstimate() ? renderer.estimatedRelativeError(kGroupGhost) : 0.0;
+        });
     result.passes = renderer.statistics().passes;
     result.beams = renderer.statistics().beams;
-    result.ghostEstimatedError = renderer.hasErrorEstimate() ? renderer.estimatedRelativeError(kGroupGhost) : 0.0;
     if (perGhostLayers) {
         // The kept ghosts' own layers (the order-4 chains' only with `higher`).
         std::set<std::string> chains;
@@ -108,26 +151,18 @@ ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGh
             }
         }
     }
-    // Each light's own image: the mesh preview of its direct path alone.
-    PreviewOptions direct;
-    direct.widthPx = result.widthPx;
-    direct.heightPx = result.heightPx;
-    for (size_t l = 0; l < scene.lights.size(); ++l) {
-        GhostReport report = renderer.ghostReport(static_cast<int>(l));
-        for (GhostEstimate& g : report.ghosts) g.pruned = true;
-        const PreviewImage image =
-            renderPreview(lens, previewLight(scene.lights[l], scene.render.previewWavelengths), report, direct);
-        add(result.direct, image.direct.xyz);
-        const LightPlan& plan = renderer.lights()[l];
+    for (const LightPlan& plan : renderer.lights()) {
         result.renderedGhosts += plan.beamGhosts;
         result.prunedGhosts += plan.prunedGhosts;
     }
+    // The direct image and the starburst, when they are done.
+    beside.wait();
+    result.direct = std::move(directXyz);
+    result.starburst = std::move(starburst);
     result.tracedRays = renderer.statistics().beamRays;
     result.leftOut = "scattering, the ghosts' parts the final render leaves to photons (pruned ghosts, rays outside the "
                      "guide masks)";
     if (!budget.higher) result.leftOut += ", the order-4 chains (`higher`)";
-    if (scene.render.diffraction)
-        result.starburst = sceneStarburst(scene, lens, result.direct, result.widthPx, result.heightPx);
     return result;
 }
 

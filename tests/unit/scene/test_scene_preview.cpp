@@ -8,11 +8,13 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include "flare/render/Render.h"
 #include "flare/scene/Scene.h"
 #include "flare/scene/ScenePreview.h"
 #include "flare/scene/SceneRender.h"
+#include "flare/scene/SceneStarburst.h"
 #include "RenderTestUtil.h"
 
 namespace flare {
@@ -104,6 +106,38 @@ TEST(ScenePreview, ConvergesToTheRendersGhostImageAndIntegratesTheSunsDisk) {
     EXPECT_LT(errorMany, bound) << "estimated " << b.ghostEstimatedError << ", reference " << referenceError;
     const ScenePreview p = previewScene(point, lens, false, many);
     EXPECT_GT(relativeL2(p.ghosts, truth), bound) << "a point-like sun's preview passed for the sun's";
+}
+
+// The light's own image and its starburst are computed beside the beams' passes (ScenePreview.cpp):
+// they are the images the mesh preview and the starburst give on their own, after the passes, and
+// every layer is the same bits with one thread as with two.
+TEST(ScenePreview, DirectImageAndStarburstBesideThePassesAreTheSequentialOnes) {
+    Scene scene = doubletSunScene(0.53);
+    scene.render.diffraction = true;
+    const LensSystem lens = buildSceneLens(scene);
+    RenderOptions options = sceneRenderOptions(scene, lens, {});
+    options.tracePhotons = false;
+    const Renderer renderer(lens, scene.lights, options);
+    GhostReport report = renderer.ghostReport(0);
+    for (GhostEstimate& g : report.ghosts) g.pruned = true;
+    PreviewOptions directOptions;
+    directOptions.widthPx = options.film.widthPx;
+    directOptions.heightPx = options.film.heightPx;
+    const std::vector<float> direct =
+        renderPreview(lens, previewLight(scene.lights[0], scene.render.previewWavelengths), report, directOptions).direct.xyz;
+    const StarburstImage starburst = sceneStarburst(scene, lens, direct, options.film.widthPx, options.film.heightPx);
+
+    std::vector<float> ghosts;
+    for (int threads : {1, 2}) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        const ScenePreview preview = previewScene(scene, lens, false, {});
+        EXPECT_EQ(preview.direct, direct) << threads << " thread(s)";
+        ASSERT_TRUE(preview.starburst.has_value());
+        EXPECT_EQ(preview.starburst->xyz, starburst.xyz) << threads << " thread(s)";
+        if (ghosts.empty()) ghosts = preview.ghosts;
+        EXPECT_EQ(preview.ghosts, ghosts) << threads << " thread(s)";
+    }
+    EXPECT_FALSE(ghosts.empty());
 }
 
 }  // namespace
