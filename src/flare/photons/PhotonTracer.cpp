@@ -188,9 +188,10 @@ void PhotonTracer::traceFrom(const SpectralIndices& indices, const WalkStart& st
     auto weighted = [&] { return stray_.weighted && weight >= kStrayWeightFloor; };
     auto deposit = [&](PhotonFate fate, double share) { h.deposited[static_cast<int>(fate)] += share; };
 
-    // Branches of the walk (stray light sampling at dusty and greasy surfaces, see
-    // StrayLightSampling): where the photon met such a surface, its state, to be resumed at the
-    // same point with the contamination's outcome forced.
+    // Branches of the walk (stray light sampling, see StrayLightSampling): where the photon met a
+    // dusty or greasy surface, its state, to be resumed at the same point with the
+    // contamination's outcome forced; where a bounce off the interior split, a child's state
+    // (kind None: it searches for its next event like any walk).
     enum class Kind { None, Behind, Ahead, Wall, SensorPlane };
     enum class Outcome : std::uint8_t { Drawn, Met, Missed };
     struct Branch {
@@ -205,7 +206,7 @@ void PhotonTracer::traceFrom(const SpectralIndices& indices, const WalkStart& st
     };
     std::array<Branch, kMaxStrayBranches> branches;
     int branchCount = 0;
-    Kind resumeKind = Kind::None;  // a resumed branch stands on its surface: no search
+    Kind resumeKind = Kind::None;  // a resumed contamination branch stands on its surface: no search
     Outcome dustOutcome = Outcome::Drawn, greaseOutcome = Outcome::Drawn;
     // Whether contamination met with probability `coverage` splits the walk into a branch that
     // meets it (weight × coverage) and one that does not (weight × (1 − coverage)), rather than
