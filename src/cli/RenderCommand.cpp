@@ -57,6 +57,7 @@ struct RenderCommandOptions {
     bool noDiffraction = false;
     bool noGhostRinging = false;
     bool analogStray = false;
+    int scatterSplits = 0;  // 0: the default
     bool quiet = false;
     bool pngGiven = false, reportGiven = false, checkpointGiven = false;  // given, even as ""
 };
@@ -129,6 +130,7 @@ int run(const RenderCommandOptions& o) {
     overrides.radiusPx = o.radiusPx;
     overrides.smoothNeighbours = o.smoothNeighbours;
     overrides.strayLightSampling = !o.analogStray;
+    if (o.scatterSplits > 0) overrides.scatterSplits = o.scatterSplits;
     if (o.interiorAlbedo >= 0.0) overrides.interiorAlbedo = o.interiorAlbedo;
     const RenderOptions options = sceneRenderOptions(scene, lens, overrides);
 
@@ -320,6 +322,10 @@ void addRenderCommand(CLI::App& app) {
     render->add_flag("--analog-stray", o->analogStray,
                      "trace the unguided photons' stray light analog (absorption by roulette, no connections to the "
                      "sensor), as the naive mode does: slower to converge, for comparison");
+    render->add_option("--scatter-splits", o->scatterSplits,
+                       "split each weighted bounce off the lens's interior (barrel, edges, rings, iris) into K directions "
+                       "of 1/K the weight (default " + std::to_string(kDefaultScatterSplits) + "; 1: no splitting)")
+        ->check(CLI::Range(1, kMaxStrayBranches + 1));
     render->add_option("--png", o->png, "also write a tone-mapped PNG");
     addExposureOption(render, o->exposureStops);
     render->add_option("--report", o->report, "write a JSON report (per-ghost power with standard errors, layers, energy)");

@@ -188,27 +188,87 @@ void PhotonTracer::traceFrom(const SpectralIndices& indices, const WalkStart& st
     auto weighted = [&] { return stray_.weighted && weight >= kStrayWeightFloor; };
     auto deposit = [&](PhotonFate fate, double share) { h.deposited[static_cast<int>(fate)] += share; };
 
+    // Branches of the walk (stray light sampling, see StrayLightSampling): where the photon met a
+    // dusty or greasy surface, its state, to be resumed at the same point with the
+    // contamination's outcome forced; where a bounce off the interior split, a child's state
+    // (kind None: it searches for its next event like any walk).
+    enum class Kind { None, Behind, Ahead, Wall, SensorPlane };
+    enum class Outcome : std::uint8_t { Drawn, Met, Missed };
+    struct Branch {
+        Ray ray;
+        int cell = 0, onSurface = -1, reflections = 0;
+        PathKey key = 0;
+        bool scattered = false;
+        ScatterSource firstScatter = ScatterSource::None;
+        double weight = 0.0;
+        Kind kind = Kind::None;
+        Outcome dust = Outcome::Drawn, grease = Outcome::Drawn;
+    };
+    std::array<Branch, kMaxStrayBranches> branches;
+    int branchCount = 0;
+    Kind resumeKind = Kind::None;  // a resumed contamination branch stands on its surface: no search
+    Outcome dustOutcome = Outcome::Drawn, greaseOutcome = Outcome::Drawn;
+    // Whether contamination met with probability `coverage` splits the walk into a branch that
+    // meets it (weight × coverage) and one that does not (weight × (1 − coverage)), rather than
+    // choosing one by roulette.
+    auto splits = [&](double coverage) {
+        return stray_.weighted && coverage < 1.0 && weight * coverage >= kStrayWeightFloor &&
+               branchCount < kMaxStrayBranches;
+    };
+    auto pushBranch = [&](Kind kind, double coverage, Outcome dust, Outcome grease) {
+        branches[branchCount++] = {ray,          cell, onSurface, h.reflections, key, scattered, firstScatter,
+                                   weight * coverage, kind, dust, grease};
+        weight *= 1.0 - coverage;
+    };
+
     // A bounce off the interior: diffuse with probability `diffuse`, glossy (Phong lobe about the
     // mirror direction) with probability `glossy`, else absorbed (analog; weighted, the photon
-    // always bounces and the absorbed share is deposited in `absorbed`).
-    auto scatterOff = [&](double diffuse, double glossy, const glm::dvec3& normalTowardsPhoton, PhotonFate absorbed) {
+    // always bounces and the absorbed share is deposited in `absorbed`). Weighted, the bounce may
+    // also split (StrayLightSampling::scatterSplits): K directions drawn independently from the
+    // lobe, each carrying 1/K of the weight; the photon goes on with the first, the others become
+    // branches resumed from this point once it ends.
+    auto scatterOff = [&](double diffuse, double glossy, const glm::dvec3& normalTowardsPhoton, PhotonFate absorbed,
+                          bool connected = false) {
         if (diffuse <= 0.0 && glossy <= 0.0) return false;
         double u = rng.uniform();
+        int children = 1;
+        const glm::dvec3 mirror = glm::normalize(reflect(ray.direction, normalTowardsPhoton));
+        auto draw = [&](double uLobe) {
+            const double u1 = rng.uniform(), u2 = rng.uniform();
+            if (uLobe < diffuse) return sampleCosineHemisphere(normalTowardsPhoton, u1, u2);
+            return samplePowerCosine(mirror, materials_.glossExponent, u1, u2);
+        };
         if (weighted()) {
             deposit(absorbed, weight * (1.0 - diffuse - glossy));
             weight *= diffuse + glossy;
             u *= diffuse + glossy;
+            // K is decided before any direction is drawn, from the walk's state alone (the
+            // weight, the room for branches), so every child's 1/K is the probability-free
+            // weight of an average of K independent draws: unbiased for any K. Only the first
+            // bounce splits: its children's later bounces would multiply the branches (and the
+            // arrivals) geometrically for light already weighted down by the albedo.
+            if (stray_.scatterSplits > 1 && !connected && !scattered)
+                children = std::max(1, std::min({stray_.scatterSplits, kMaxStrayBranches - branchCount + 1,
+                                                  static_cast<int>(std::min(weight / kStrayWeightFloor, 1e6))}));
+            if (children > 1) {
+                weight /= children;
+                for (int c = 1; c < children; ++c) {
+                    const glm::dvec3 w = draw(rng.uniform() * (diffuse + glossy));
+                    if (glm::dot(w, normalTowardsPhoton) <= 0.0) {  // into the paint (glossy only)
+                        deposit(absorbed, weight);
+                        continue;
+                    }
+                    branches[branchCount++] = {Ray{ray.originMm, w}, cell, onSurface, h.reflections, key, true,
+                                               scattered ? firstScatter : ScatterSource::Housing,
+                                               weight * stray_.testSplitScale, Kind::None,
+                                               Outcome::Drawn, Outcome::Drawn};
+                }
+            }
         } else if (u >= diffuse + glossy) {
             return false;
         }
-        const double u1 = rng.uniform(), u2 = rng.uniform();
-        if (u < diffuse) {
-            ray.direction = sampleCosineHemisphere(normalTowardsPhoton, u1, u2);
-        } else {
-            const glm::dvec3 mirror = glm::normalize(reflect(ray.direction, normalTowardsPhoton));
-            ray.direction = samplePowerCosine(mirror, materials_.glossExponent, u1, u2);
-            if (glm::dot(ray.direction, normalTowardsPhoton) <= 0.0) return false;  // into the paint
-        }
+        ray.direction = draw(u);
+        if (glm::dot(ray.direction, normalTowardsPhoton) <= 0.0) return false;  // into the paint (glossy only)
         markScattered(ScatterSource::Housing);
         return true;
     };
@@ -264,38 +324,6 @@ void PhotonTracer::traceFrom(const SpectralIndices& indices, const WalkStart& st
         return true;
     };
     const bool connectSensor = stray_.connectSensor && !cells_[n].glass && mediumOfCell_[n] < 0 && sensorAreaMm2 > 0.0;
-
-    // Branches of the walk (stray light sampling at dusty and greasy surfaces, see
-    // StrayLightSampling): where the photon met such a surface, its state, to be resumed at the
-    // same point with the contamination's outcome forced.
-    enum class Kind { None, Behind, Ahead, Wall, SensorPlane };
-    enum class Outcome : std::uint8_t { Drawn, Met, Missed };
-    struct Branch {
-        Ray ray;
-        int cell = 0, onSurface = -1, reflections = 0;
-        PathKey key = 0;
-        bool scattered = false;
-        ScatterSource firstScatter = ScatterSource::None;
-        double weight = 0.0;
-        Kind kind = Kind::None;
-        Outcome dust = Outcome::Drawn, grease = Outcome::Drawn;
-    };
-    std::array<Branch, kMaxStrayBranches> branches;
-    int branchCount = 0;
-    Kind resumeKind = Kind::None;  // a resumed branch stands on its surface: no search
-    Outcome dustOutcome = Outcome::Drawn, greaseOutcome = Outcome::Drawn;
-    // Whether contamination met with probability `coverage` splits the walk into a branch that
-    // meets it (weight × coverage) and one that does not (weight × (1 − coverage)), rather than
-    // choosing one by roulette.
-    auto splits = [&](double coverage) {
-        return stray_.weighted && coverage < 1.0 && weight * coverage >= kStrayWeightFloor &&
-               branchCount < kMaxStrayBranches;
-    };
-    auto pushBranch = [&](Kind kind, double coverage, Outcome dust, Outcome grease) {
-        branches[branchCount++] = {ray,          cell, onSurface, h.reflections, key, scattered, firstScatter,
-                                   weight * coverage, kind, dust, grease};
-        weight *= 1.0 - coverage;
-    };
 
     auto walk = [&] {
         while (h.events < kMaxPhotonEvents) {
@@ -405,7 +433,9 @@ void PhotonTracer::traceFrom(const SpectralIndices& indices, const WalkStart& st
                     h.fate = PhotonFate::EventLimit;
                     return;
                 }
-                if (!scatterOff(diffuse, glossy, wallNormal, absorbed)) {
+                // (A bounce connected to the sensor does not split: its branches would lose the
+                // connection that their direct hits' MIS weights assume.)
+                if (!scatterOff(diffuse, glossy, wallNormal, absorbed, connection.event == h.events)) {
                     h.fate = absorbed;
                     return;
                 }

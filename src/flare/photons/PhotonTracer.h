@@ -139,7 +139,7 @@ enum class PhotonFate : std::uint8_t {
 const char* toString(PhotonFate fate);
 
 inline constexpr int kMaxPhotonEvents = 4096;
-inline constexpr int kMaxSensorArrivals = 32;
+inline constexpr int kMaxSensorArrivals = 64;  // (a split photon's children share them)
 
 // One arrival at the sensor (a photon may arrive several times: the sensor reflects). With stray
 // light sampling on, an arrival may also be a connection from a scattering point to the sensor.
@@ -166,7 +166,7 @@ struct PhotonHistory {
     double weight = 1.0;
     std::array<double, static_cast<int>(PhotonFate::Count)> deposited{};
 
-    // As assigning PhotonHistory{}, except that the arrivals' storage (1.3 KB, past arrivalCount
+    // As assigning PhotonHistory{}, except that the arrivals' storage (2.6 KB, past arrivalCount
     // never read) is left as it is: a photon's walk starts with this.
     // (Every other member is reset here: add a new one here too; a test compares with PhotonHistory{}.)
     void restart() {
@@ -196,13 +196,21 @@ struct PhotonHistory {
 //    ends, and one that does not (weight × (1 − coverage)), so every photon crossing a dusty or
 //    greasy patch carries some of its scattered light (at most kMaxStrayBranches pending; the
 //    dust's albedo is a weight too). Each branch ends in its own fate.
+//  - Splitting at the interior finishes (scatterSplits K > 1, weighted walks only): a photon's
+//    first bounce off the barrel, an edge, a ring or the iris draws K directions from its lobe,
+//    each carrying 1/K of the weight, while each child stays above kStrayWeightFloor and branches
+//    are free (a bounce connected to the sensor does not split). The light scattered inside the lens reaches the
+//    sensor through a few directions of a bounce's lobe, so its variance is mostly the
+//    direction's; the K children share the path that led to the bounce.
 struct StrayLightSampling {
     bool weighted = false;
     bool connectSensor = false;
+    int scatterSplits = 1;
     double testConnectionScale = 1.0;  // a test's deliberate error (multiplies the connections)
+    double testSplitScale = 1.0;       // a test's deliberate error (multiplies the split-off branches' weights)
 };
 inline constexpr double kStrayWeightFloor = 1e-3;
-inline constexpr int kMaxStrayBranches = 8;
+inline constexpr int kMaxStrayBranches = 16;
 
 class PhotonTracer {
 public:

@@ -121,7 +121,7 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
     for (int l = 0; l < kFixedLayerCount; ++l) layerNames_.push_back(renderLayerName(l));
     if (options.tabulatedReflectance) tracer_.tabulateReflectance();
     if (options.strayLightSampling && options.mode != RenderOptions::Mode::Naive)
-        tracer_.setStrayLightSampling({.weighted = true, .connectSensor = true});
+        tracer_.setStrayLightSampling({.weighted = true, .connectSensor = true, .scatterSplits = options.scatterSplits});
     const bool anyScattering = interiorScatters(options.materials) || tracer_.hasContamination() || tracer_.hasMedia();
 
     std::vector<double> lightWeight;

@@ -63,6 +63,9 @@
 
 namespace flare {
 
+// Directions per bounce off the interior finishes for stray light sampling (RenderOptions::scatterSplits).
+inline constexpr int kDefaultScatterSplits = 8;
+
 struct RenderOptions {
     // Naive: the unguided tracer alone (the seed thesis's method). Guided: beams where they
     // apply, guided photons elsewhere. GuidedPhotons: guided photons for every kept path.
@@ -123,6 +126,10 @@ struct RenderOptions {
     // The unguided photons of the guided modes sample stray light with weights and connections to
     // the sensor (PhotonTracer's StrayLightSampling); the naive mode stays analog, the reference.
     bool strayLightSampling = true;
+    // With stray light sampling, each bounce off the interior finishes splits into this many
+    // directions (StrayLightSampling::scatterSplits; 1: none). The default's measurement:
+    // docs/BENCHMARKS.md, "Every light converges, fifth part".
+    int scatterSplits = kDefaultScatterSplits;
     // Chains of four reflections (the `higher` layer): the strongest are enumerated and guided
     // like ghosts when the lens's reflectances make them matter (Auto: when the estimated ratio of
     // their power to the ghosts', higherOrderShareEstimate, reaches the threshold), else they are

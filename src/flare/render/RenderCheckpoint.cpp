@@ -38,7 +38,8 @@ std::uint64_t Renderer::fingerprint() const {
                         options_.correctionPhotonsPerBeam, options_.beamMeshLevel,
                         static_cast<int>(std::lround(options_.testBeamShiftPx * 1024.0)), options_.maxAnalysedChains,
                         options_.smoothNeighbours, options_.tabulatedReflectance ? 1 : 0,
-                        options_.strayLightSampling ? 1 : 0, film_.replicates(), options_.tracePhotons ? 1 : 0};
+                        options_.strayLightSampling ? 1 : 0, film_.replicates(), options_.tracePhotons ? 1 : 0,
+                        options_.scatterSplits};
     mix(ints, sizeof ints);
     for (const renderer::PhotonComponent& c : components_) {
         mix(&c.light, sizeof c.light);

@@ -45,6 +45,7 @@ RenderOptions sceneRenderOptions(const Scene& scene, const LensSystem& lens, con
     options.film.radiusPx = overrides.radiusPx;
     options.smoothNeighbours = overrides.smoothNeighbours;
     options.strayLightSampling = overrides.strayLightSampling;
+    if (overrides.scatterSplits) options.scatterSplits = *overrides.scatterSplits;
     if (overrides.kernel == FilmSettings::Kernel::Progressive && overrides.radiusPx == 1.0) options.film.radiusPx = 4.0;
     return options;
 }

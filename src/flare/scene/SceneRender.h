@@ -33,6 +33,7 @@ struct SceneRenderOverrides {
     double radiusPx = 1.0;  // the progressive kernel starts at 4 px when this is left at 1
     int smoothNeighbours = 256;
     bool strayLightSampling = true;  // false: the unguided photons' stray light stays analog
+    std::optional<int> scatterSplits;  // RenderOptions::scatterSplits (unset: its default)
     // The diffuse albedo of the barrel, element edges and iris blades (not glossy), replacing the
     // scene's finishes.
     std::optional<double> interiorAlbedo;

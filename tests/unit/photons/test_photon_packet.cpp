@@ -208,6 +208,12 @@ TEST(PhotonPacket, EqualsTraceWithDustGreaseMediaStrayLightAndABounceLimit) {
         EXPECT_GT(compareWalks(tracer, 3000, 14).laneEvents, 0);
     }
     {
+        SCOPED_TRACE("the same, the interior's bounces split in four");
+        PhotonTracer tracer(lens, greyInterior(), -1, dirt, media);
+        tracer.setStrayLightSampling({.weighted = true, .connectSensor = true, .scatterSplits = 4});
+        EXPECT_GT(compareWalks(tracer, 3000, 16).laneEvents, 0);
+    }
+    {
         SCOPED_TRACE("a bounce limit of 2 (one photon at a time)");
         const PhotonTracer tracer(lens, greyInterior(), 2);
         const Outcome o = compareWalks(tracer, 2000, 15);
