@@ -123,10 +123,8 @@ def _same_radii_but_plate(a, b):
     return len(a) == len(b) + 2 and a[-2:] == (0.0, 0.0) and _same_radii(a[:-2], b)
 
 
-def _f_numbers(git_dir, path, count):
+def _f_numbers(text, count):
     """LensVisualizer's nominalFno: a list per state (variable aperture) or None (constant)."""
-    text = subprocess.run(["git", "--git-dir", git_dir, "show", "HEAD:" + path], capture_output=True, text=True,
-                          check=True).stdout
     m = re.search(r"nominalFno:\s*\[([^\]]*)\]", text)
     if not m:
         return None
@@ -171,7 +169,8 @@ def _space_gaps(rows, table):
     everything between two refracting surfaces: the same in both transcriptions, since the radii
     match. Where the file's stop sits in a variable space, its distance to one neighbour is kept: to
     the surface behind it (the stop travels with the group behind it), unless the table puts its
-    stop in the same space and varies the gap behind the stop instead.
+    stop in the same space and varies the gap behind the stop instead (and the file's stop, kept at
+    its distance to the surface in front, stays clear of the surface behind at every state).
     A file may end with a plane-parallel plate (a filter or the sensor's cover glass) that the
     table leaves out, folding it into its back focus as an equivalent air gap: then the gap before
     the plate changes from state to state as the table's back focus does (the plate stays with the
@@ -235,7 +234,10 @@ def _space_gaps(rows, table):
             resplit.append(j + 1)
         table_varies = [max(table_value(r, k) for k in range(n)) - min(table_value(r, k) for k in range(n)) > 1e-9
                         for r in ts]
-        if len(ts) == 2 and table_varies == [False, True]:
+        # The table's stop travelling with the group in front, unless the file's stop sits so far back
+        # in the space that it would then pass the vertex behind it (its place is the collection's,
+        # not the table's: the stop then travels with the group behind it).
+        if len(ts) == 2 and table_varies == [False, True] and min(total) - before >= MIN_STOP_GAP_MM:
             row, values = fs[1], [round(t - before, 6) for t in total]
         else:
             row, values = fs[0], [round(t - behind, 6) for t in total]
@@ -271,6 +273,15 @@ F_NUMBER_OVERRIDES = {
         [2.07, 2.63, 2.90],
         "the patent's F-numbers 2.07 / 2.63 / 2.90 (as LensVisualizer's header quotes them; its nominalFno "
         "[2, 2.5, 2.8] is the marketed f/2-2.8 and is not used)"),
+    "canon-ef28-135mm-f3.5-5.6-is-usm": (
+        [3.6, 4.36, 5.6],
+        "the file's f/3.6 at wide; the patent's f/4.36 at mid (as LensVisualizer's file quotes it; its nominalFno "
+        "4.24 there is that value scaled by a design-to-market ratio and is not used); at tele the marketed f/5.6 "
+        "(nominalFno; the patent's tele F-number is quoted in neither source)"),
+    "konica-minolta-35-135mm-f3.5-4.5-md-zoom": (
+        [3.608, 4.56],
+        "the patent's F-numbers 3.608 / 4.56 (US 5,249,079 Table 4, as LensVisualizer's file quotes them; its "
+        "nominalFno 3.611 / 4.557 is its fixed-stop model's), the file keeping its f/3.6 at wide"),
 }
 
 
@@ -282,6 +293,10 @@ MODELLED_F_NUMBERS = {
                                                           "LensVisualizer's model (nominalFno 2.064 / 2.357 / 2.875)",
     "tamron-14-150mm-f3.5-5.8-di-iii": "US 2014/0347522 Example 3: LensVisualizer's nominalFno (3.65 / 5.388 / 5.905) "
                                        "is its single fixed-stop fit to the patent's F-numbers, not the patent's",
+    "tamron-sp-150-600mm-f5-6.3-di-vc-usd": "US 10,545,321 B2 Example 4: LensVisualizer's nominalFno (4.994 / 5.872 / "
+                                            "6.541) is its normalised fixed-stop model's, not the patent's",
+    "canon-ef-s55-250mm-f4-5.6-is": "US 7,471,462 Example 2: LensVisualizer's nominalFno at mid (5.1291...) is its "
+                                    "model's, and the patent's F-number there is quoted in neither source",
 }
 
 
@@ -448,12 +463,12 @@ def apply(folder, git_dir, flare, skip=()):
                  next((t for k, t in tables.items() if _matches(rows, k)), None))
         if not table or len(table["focal_lengths"]) > MAX_STATES:
             continue
-        f_numbers = _f_numbers(git_dir, table["file"], len(table["focal_lengths"]))
+        f_numbers = _f_numbers(table["text"], len(table["focal_lengths"]))
         patent = f"{entry['patent']} Example {entry['example']}" if entry.get("patent") and entry.get("example") else None
         f_number_note = None
         if entry["id"] in F_NUMBER_OVERRIDES:
             f_numbers, f_number_note = F_NUMBER_OVERRIDES[entry["id"]]
-        result = merged_text(text, table, f_numbers, commit, patent, f_number_note)
+        result = merged_text(text, table, f_numbers, table.get("commit") or commit, patent, f_number_note)
         if not result:
             continue
         new_text, names, stated = result

@@ -16,10 +16,12 @@ ZoomTables.MatchAirSpacesAndCountRanges).
 import json
 import os
 import sys
+import tempfile
 import unittest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.join(ROOT, "scripts"))
+import import_lens_library as imp  # noqa: E402
 import merge_zoom_states as merge  # noqa: E402
 import patent_zooms  # noqa: E402
 import zoom_ranges  # noqa: E402
@@ -63,6 +65,19 @@ class SpaceGaps(unittest.TestCase):
         gaps, held, resplit, _ = merge._space_gaps(rows, t)
         self.assertEqual(held, 0)
         self.assertEqual(gaps, {2: [8.0, 3.0, 1.0]})
+        self.assertEqual(resplit, [2])
+
+    def test_a_stop_far_behind_the_tables_travels_with_the_group_behind_it(self):
+        # As above, but the file's stop sits 1 mm in front of surface 3 (11 + 1 = 12 at wide) while the
+        # table's sits 1 mm behind surface 2: kept 11 mm behind surface 2 it would pass surface 3 at
+        # tele (space 5 mm), so it keeps its 1 mm to surface 3 (the Nikon 360-1200's case).
+        rows = file_rows(("50", "3", "1.5/60", "10"), ("-50", "11", "air", "10"), ("stop", "1", "air", "5"),
+                         ("30", "2", "1.6/40", "8"), ("-30", "auto", "air", "8"))
+        t = table(["1", "2", "STO", "3", "4"], [3, 1, 11, 2, 40], {"STO": [11, 6, 4]})
+        t["key"] = (50.0, -50.0, 30.0, -30.0)
+        gaps, held, resplit, _ = merge._space_gaps(rows, t)
+        self.assertEqual(held, 0)
+        self.assertEqual(gaps, {1: [11.0, 6.0, 4.0]})
         self.assertEqual(resplit, [2])
 
     def test_a_stop_that_would_touch_a_vertex_is_no_match(self):
@@ -127,6 +142,59 @@ class Paraxial(unittest.TestCase):
             21.6)
         self.assertAlmostEqual(stop_radius[0], f / 8.0, delta=1e-4)  # rounded up to 0.1 um
         self.assertGreaterEqual(stop_radius[0], f / 8.0)
+
+
+class TableReader(unittest.TestCase):
+    TEXT = """// commit 0123456789ab
+const LENS_DATA = {
+  surfaces: [
+    { label: "1", R: 50.0, d: 3.0, nd: 1.5, elemId: 1 },
+    { label: "2", R: -50.0, d: 12.0, nd: 1.0, elemId: 0 },
+    { label: "STO", R: 1e15, d: 4.0, nd: 1.0, elemId: 0 },
+    { label: "4", R: 30.0, d: 40.0, nd: 1.0, elemId: 0 },
+  ],
+  var: {
+    "2": [[12.0, 12.0], [5.0, 5.0]],
+    STO: [
+      [4.0, 4.0],
+      [1.5, 1.5],
+    ],
+    7: [[1.0], [2.0]],
+  },
+  zoomPositions: [10, 20],
+  nominalFno: [4, 5.6],
+};
+"""
+
+    def test_every_gap_label_is_read(self):
+        # A quoted label, the bare STO of the gap behind the stop (which the reader once dropped, so
+        # that three merged zooms kept that gap fixed), and a bare number.
+        t = imp.lensvisualizer_table("src/lens-data/x/X.data.ts", self.TEXT, "0123456789ab")
+        self.assertEqual(t["gaps"], {"2": [12.0, 5.0], "STO": [4.0, 1.5], "7": [1.0, 2.0]})
+        self.assertEqual(t["labels"], ["1", "2", "STO", "4"])
+        self.assertEqual(t["thicknesses"], [3.0, 12.0, 4.0, 40.0])
+        self.assertEqual(t["focal_lengths"], [10.0, 20.0])
+        self.assertEqual(merge._f_numbers(t["text"], 2), [4.0, 5.6])
+
+    def test_later_tables_name_their_commit(self):
+        # Every table in lenses/zoom-tables is read, with the LensVisualizer commit its header names,
+        # and replaces the git folder's file of the same path.
+        with tempfile.TemporaryDirectory() as later:
+            os.makedirs(os.path.join(later, "x"))
+            with open(os.path.join(later, "x", "X.data.ts"), "w", encoding="utf-8") as fh:
+                fh.write(self.TEXT)
+            texts = imp.lensvisualizer_texts(None, later, git=lambda *a: "")
+            self.assertEqual(texts, {"src/lens-data/x/X.data.ts": (self.TEXT, "0123456789ab")})
+            with open(os.path.join(later, "x", "X.data.ts"), "w", encoding="utf-8") as fh:
+                fh.write(self.TEXT.replace("commit 0123456789ab", "no commit"))
+            with self.assertRaises(SystemExit):
+                imp.lensvisualizer_texts(None, later, git=lambda *a: "")
+        for maker in os.listdir(imp.LATER_TABLES):
+            folder = os.path.join(imp.LATER_TABLES, maker)
+            for name in os.listdir(folder) if os.path.isdir(folder) else []:
+                with open(os.path.join(folder, name), encoding="utf-8") as fh:
+                    text = fh.read()
+                self.assertIsNotNone(imp.lensvisualizer_table(name, text), name)
 
 
 class RangeCount(unittest.TestCase):
