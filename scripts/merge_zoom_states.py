@@ -451,6 +451,10 @@ def apply(folder, git_dir, flare, skip=()):
     merged, failed = [], []
     staging = tempfile.mkdtemp(prefix="flare-zoom-merge-")
     candidates = []
+    # A zoom whose table's f-numbers are a model's is not merged (docs/lens-library.md): an earlier
+    # run's merge failure of it no longer stands.
+    aside["set_aside"] = [e for e in aside["set_aside"]
+                          if not (e.get("id") in MODELLED_F_NUMBERS and e["cause"].startswith("zoom-merge"))]
     for entry in index["lenses"]:
         if "zoom-first-position-only" not in entry["tags"] or entry["id"] in skip or entry["id"] in MODELLED_F_NUMBERS:
             continue
