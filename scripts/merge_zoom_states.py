@@ -278,6 +278,14 @@ F_NUMBER_OVERRIDES = {
         "the file's f/3.6 at wide; the patent's f/4.36 at mid (as LensVisualizer's file quotes it; its nominalFno "
         "4.24 there is that value scaled by a design-to-market ratio and is not used); at tele the marketed f/5.6 "
         "(nominalFno; the patent's tele F-number is quoted in neither source)"),
+    "nikon-af-zoom-nikkor-28-85mm-f3.5-4.5": (
+        [3.5, 4.0],
+        "the patent's f/3.5-4.0 (US 4,806,000 Example 1, as LensVisualizer's file quotes it; its nominalFno 4.5 at "
+        "tele is the marketed value and is not used)"),
+    "konica-minolta-28-85mm-f3.5-4.5-md-zoom": (
+        [3.6, 4.0, 4.63],
+        "the patent's printed F-numbers 3.6 / 4.0 / 4.63 (JP H01-193709 Example 1, as LensVisualizer's file quotes "
+        "them; its nominalFno 3.637 / 3.967 / 4.63 is its fixed-stop model's)"),
     "konica-minolta-35-135mm-f3.5-4.5-md-zoom": (
         [3.608, 4.56],
         "the patent's F-numbers 3.608 / 4.56 (US 5,249,079 Table 4, as LensVisualizer's file quotes them; its "
@@ -300,7 +308,29 @@ MODELLED_F_NUMBERS = {
 }
 
 
-def merged_text(text, table, f_numbers, commit, patent=None, f_number_note=None):
+# Zooms whose patent table has a state outside the range the lens is named for (the name check,
+# docs/lens-library.md "Names", allows 5 %): the table's states kept (0-based), with why. The kept
+# states are the patent's, unchanged.
+STATES = {
+    "canon-ef100-300mm-f5.6": (
+        [1, 2, 3],
+        "JP S61-77818 Example 1 tabulates 69 / 100 / 198 / 290 mm; the 69 mm state lies outside the 100-300 mm the "
+        "lens is named for (and the file holds the 100 mm state), so the positions are the 100, 198 and 290 mm "
+        "states"),
+}
+
+
+def _kept_states(table, f_numbers, lens_id):
+    """The table (and its f-numbers) with only the states STATES keeps for the lens; the note why."""
+    if lens_id not in STATES:
+        return table, f_numbers, None
+    keep, why = STATES[lens_id]
+    table = dict(table, focal_lengths=[table["focal_lengths"][k] for k in keep],
+                 gaps={label: [values[k] for k in keep] for label, values in table["gaps"].items()})
+    return table, [f_numbers[k] for k in keep] if f_numbers else f_numbers, why
+
+
+def merged_text(text, table, f_numbers, commit, patent=None, f_number_note=None, state_note=None):
     """The file with the table's states as zoom positions, or None when the table does not match."""
     lines, rows = _rows(text)
     if not _matches(rows, table["key"]):
@@ -325,6 +355,8 @@ def merged_text(text, table, f_numbers, commit, patent=None, f_number_note=None)
               f"table's{' (' + patent + ')' if patent else ''}, as transcribed in LensVisualizer (github.com/ronbuening/LensVisualizer, {table['file']}, "
               f"commit {commit[:12]}; no licence stated there: only the patent's numbers are taken, and the radii were "
               f"matched to this file), merged by scripts/merge_zoom_states.py")
+    if state_note:
+        source += f"; the zoom positions are the table's states a name allows: {state_note}"
     if held:
         source += f"; this file held the table's state {held + 1} ({names[held]}, its focal length {table['focal_lengths'][held]:g} mm)"
     if resplit:
@@ -372,6 +404,66 @@ def merged_text(text, table, f_numbers, commit, patent=None, f_number_note=None)
                                   (f"  #{comment}" if hash_ else "")).rstrip()
     stated = f_numbers[:held] + [stated_f] + f_numbers[held + 1:] if f_numbers else [stated_f] * n
     return "\n".join(lines2) + "\n", names, stated
+
+
+def _cross(table, semi):
+    """Whether two neighbouring surfaces cross inside their clear radii (the load check's fault)."""
+    for a, b, ra, rb in zip(table, table[1:], semi, semi[1:]):
+        reach = max(ra, rb)
+        if any(a["thickness"] + imp.sag(b["radius"], min(reach * k / 64.0, rb)) -
+               imp.sag(a["radius"], min(reach * k / 64.0, ra)) < 0.0 for k in range(65)):
+            return True
+    return False
+
+
+def narrowest_cut(text):
+    """For a merged file whose surfaces would cross at the narrowest state of a variable gap (the
+    collection's clear radii, mostly estimates, sized for the state it held): the file with its clear
+    radii cut where two surfaces come closer than the importer's minimum edge (0.3 mm of glass, 0.1 mm
+    of air, or half the gap) at that state, the rule the import applied to the state the file held
+    (import_lens_library.cut_pass). None when nothing crosses (a merge that loads keeps its radii).
+    The checks then say whether the axial beam still passes (the ray fan)."""
+    lines, rows = _rows(text)
+    narrowest = {}
+    for line in lines:
+        tokens = line.split("#")[0].split()
+        if tokens and tokens[0] == "gap":
+            narrowest[tokens[1]] = min(float(t.split("=")[1]) for t in tokens[2:])
+    table, semi = [], []
+    for _, tokens in rows:
+        radius, thickness, material, aperture = tokens[:4]
+        table.append({"radius": 0.0 if radius in ("inf", "stop") else float(radius),
+                      "thickness": narrowest[thickness] if thickness in narrowest else
+                      (0.0 if thickness == "auto" else float(thickness)),
+                      "nd": 1.0 if material == "air" else float(material.split("/")[0]) if "/" in material else 1.5,
+                      "stop": radius == "stop"})
+        semi.append(float(aperture) if aperture != IRIS else 0.0)
+    if not _cross(table, semi):
+        return None
+    before = list(semi)
+    for _ in range(len(rows)):
+        if not imp.cut_pass(table, semi):
+            break
+    # A cut below 1 um is the bisection's and the file's rounding (the import cut there already).
+    cut = [i for i in range(len(rows)) if semi[i] < before[i] - 1e-3]
+    if not cut:
+        return None
+    note = ("# Clear radii cut back for the narrowest state of each variable gap, where surfaces would cross there "
+            "(the importer's rule, which it applied to the state the file held): " +
+            ", ".join(f"row {i + 1}: {before[i]:g} -> {math.floor(semi[i] * 1e4) / 1e4:g} mm" for i in cut) +
+            ". Merged by scripts/merge_zoom_states.py.")
+    out = list(lines)
+    for i in cut:
+        line_index, tokens = rows[i]
+        body, hash_, comment = out[line_index].partition("#")
+        parts = body.split()
+        parts[3] = f"{math.floor(semi[i] * 1e4) / 1e4:g}"
+        out[line_index] = (f"   {parts[0]:<13s} {parts[1]:<11s} {parts[2]:<17s} {parts[3]:<10s}" +
+                           (" " + " ".join(parts[4:]) if len(parts) > 4 else "") +
+                           (f"  #{comment}" if hash_ else "")).rstrip()
+    at = next(i for i, line in enumerate(out) if line.startswith("name "))
+    out.insert(at, note)
+    return "\n".join(out) + "\n"
 
 
 IRIS = "iris"
@@ -468,14 +560,17 @@ def apply(folder, git_dir, flare, skip=()):
         if not table or len(table["focal_lengths"]) > MAX_STATES:
             continue
         f_numbers = _f_numbers(table["text"], len(table["focal_lengths"]))
+        table, f_numbers, state_note = _kept_states(table, f_numbers, entry["id"])
         patent = f"{entry['patent']} Example {entry['example']}" if entry.get("patent") and entry.get("example") else None
         f_number_note = None
         if entry["id"] in F_NUMBER_OVERRIDES:
             f_numbers, f_number_note = F_NUMBER_OVERRIDES[entry["id"]]
-        result = merged_text(text, table, f_numbers, table.get("commit") or commit, patent, f_number_note)
+        result = merged_text(text, table, f_numbers, table.get("commit") or commit, patent, f_number_note,
+                             state_note)
         if not result:
             continue
         new_text, names, stated = result
+        new_text = narrowest_cut(new_text) or new_text
         candidates.append([entry, path, new_text, names, table, stated])
     try:
         # First with the file's stop as it is; then, where a position's stop does not open to its

@@ -144,6 +144,37 @@ class Paraxial(unittest.TestCase):
         self.assertGreaterEqual(stop_radius[0], f / 8.0)
 
 
+class NarrowestCut(unittest.TestCase):
+    # Two surfaces bulging towards each other across a variable air gap, 5 mm at wide and 0.5 mm at
+    # tele: R = +50 behind glass, then R = -50. At height r the gap is t - 2 (50 - sqrt(2500 - r^2)),
+    # so at tele the rims, 10 mm high, cross; the importer's minimum there is min(0.1 mm, half the
+    # gap) = 0.1 mm, reached where 50 - sqrt(2500 - r^2) = 0.2: r = sqrt(2500 - 49.8^2) = 4.46766 mm.
+    TEXT = """name test
+zoom wide=10 tele=20
+f_number 4
+gap d2 wide=5 tele=0.5
+
+surfaces
+   -30           3           1.5/60            10
+   50            d2          air               10
+   -50           3           1.5/60            10
+   stop          2           air               iris
+   30            auto        air               8
+"""
+
+    def test_radii_cut_where_the_narrowest_state_crosses(self):
+        text = merge.narrowest_cut(self.TEXT)
+        _, rows = merge._rows(text)
+        expected = (2500 - 49.8 ** 2) ** 0.5
+        for row in (1, 2):
+            self.assertAlmostEqual(float(rows[row][1][3]), expected, delta=2e-4)
+        self.assertEqual([t[3] for _, t in rows[3:]], ["iris", "8"])  # the stop and the others are kept
+        self.assertIn("# Clear radii cut back for the narrowest state", text)
+
+    def test_a_merge_that_does_not_cross_keeps_its_radii(self):
+        self.assertIsNone(merge.narrowest_cut(self.TEXT.replace("tele=0.5", "tele=2.5")))
+
+
 class TableReader(unittest.TestCase):
     TEXT = """// commit 0123456789ab
 const LENS_DATA = {

@@ -1,10 +1,11 @@
-// The zooms merged for issue 28, item 2: 80 library zooms merged by scripts/merge_zoom_states.py
+// The zooms merged for issue 28, item 2: 83 library zooms merged by scripts/merge_zoom_states.py
 // once the stop row could take a semi-aperture per zoom position (`aperture`, docs/lens-format.md;
 // 33 of them need it), tables were matched by radii to the hundredth either way and a file could
 // hold another state than the table's first, and gap labels written as bare numbers were read; 28 more
 // once tables were matched air space by air space (a stop placed in another air space, a cover glass
 // folded into the table's back focus, a thin cemented resin layer left out); 14 more once the gap
-// behind a stop labelled bare STO was read and the tables of lenses/zoom-tables were added. Their
+// behind a stop labelled bare STO was read and the tables of lenses/zoom-tables were added (17 in
+// all). Their
 // numbers are checked here against the patents' own, typed
 // independently of the files: each zoom state's published focal length and stated f-number, as the
 // patent tables give them (transcribed in LensVisualizer, src/lens-data/*.data.ts: zoomPositions and
@@ -127,6 +128,13 @@ const PublishedZoom kPublished[] = {
     {"nikon-af-s-dx-nikkor-10-24mm-f3.5-4.5g-ed", {10.295, 15.598, 23.393}, {3.6, 4.15, 4.6}},
     {"canon-canon-rf14-35mm-f4-l-is-usm", {14.42, 24.42, 33.95}, {4.08, 4.08, 4.12}},
     {"konica-minolta-35-135mm-f3.5-4.5-md-zoom", {35.9, 131.5}, {3.608, 4.56}},
+    // US 2019/0302431 Example 1 (a plate behind the lens the table leaves out); JP S61-77818
+    // Example 1's 100 / 198 / 290 mm states (its 69 mm state lies outside the named 100-300);
+    // JP H01-193709 Example 1 with its printed F3.6 / 4.0 / 4.63, its clear radii cut where the
+    // collection's would cross at tele.
+    {"fujifilm-fujinon-xf8-16mmf2.8-r-lm-wr", {8.238, 15.516}, {2.88, 2.88}},
+    {"canon-ef100-300mm-f5.6", {100, 198, 290}, {5.6, 5.6, 5.6}},
+    {"konica-minolta-28-85mm-f3.5-4.5-md-zoom", {28.8, 50, 82.5}, {3.6, 4.0, 4.63}},
     // Entered whole from a patent example by scripts/patent_zooms.py (no file of the range could be
     // merged): US 6,940,655 B2 Example 1, f = 12.30 / 18.00 / 23.30 mm at f/4.1.
     {"nikon-af-s-dx-zoom-nikkor-12-24mm-f4g-if-ed", {12.3, 18.0, 23.3}, {4.1, 4.1, 4.1}},
@@ -165,15 +173,15 @@ TEST(ZoomMerges, EachPositionReachesThePatentsFocalLengthAndFNumber) {
         EXPECT_TRUE(report.ok()) << (report.failures.empty() ? "" : report.failures[0].check + ": " + report.failures[0].detail);
     }
     // 47 of them merged only because the iris may open per position (33 + 14 of the 28 matched air
-    // space by air space), and 7 of the 14 of the third round; the others with the file's stop. The
+    // space by air space), and 8 of the 17 of the third round; the others with the file's stop. The
     // zooms entered whole from a patent open their iris per position too (three).
-    EXPECT_EQ(opened, 47 + 7 + 3);
+    EXPECT_EQ(opened, 47 + 8 + 3);
     std::printf("largest |EFL / published - 1| over the %zu zooms' positions: %.3f %%\n", std::size(kPublished),
                 100.0 * worstEfl);
 }
 
 // How many of the library's zooms can zoom now: 18 before this work, 56 after the first merges, 84
-// once tables were matched air space by air space, 97 once the gap behind a bare STO was read and
+// once tables were matched air space by air space, 100 once the gap behind a bare STO was read and
 // the later tables were added.
 TEST(ZoomMerges, LibraryZoomsWithPositions) {
     const LensLibrary library = LensLibrary::load({test::sourcePath("lenses/library")});
@@ -194,7 +202,7 @@ TEST(ZoomMerges, LibraryZoomsWithPositions) {
         const LibraryLens* entry = library.find(published.id);
         merged += entry != nullptr && entry->collection == "flaresim";
     }
-    EXPECT_EQ(merged, 66 + 14);
+    EXPECT_EQ(merged, 66 + 17);
     EXPECT_GE(withPositions, 17 + merged);
 }
 
