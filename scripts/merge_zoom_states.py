@@ -30,6 +30,12 @@ cams finely) and is not used. Failures are listed in set-aside.json as `zoom-mer
 ships as its one state). Only the patents' numbers are taken from LensVisualizer (no licence
 stated there). Idempotent.
 
+The tables LensVisualizer transcribed after the snapshot in LENSVISUALIZER.git are read from
+lenses/zoom-tables/ (the patents' numbers only, each naming the file and commit it was read at;
+import_lens_library.lensvisualizer_texts). Where the collection's clear radii would cross at a gap's
+narrowest state they are cut there by the importer's rule (narrowest_cut); STATES leaves out a
+table's states outside the range a lens is named for.
+
 Usage:  /usr/bin/python3 scripts/merge_zoom_states.py lenses/library LENSVISUALIZER.git build/src/flare [--skip ID ...]
 (scripts/import_lens_library.py runs it when given --lensvisualizer.) --skip leaves a library file
 as it is (one being reworked by hand).

@@ -19,6 +19,9 @@ height there at that state's f-number (an `aperture` line when it differs betwee
 up to 0.1 um. Every file is then run through `flare lens check` at each position (EFL within 1 % of
 the patent's focal length, the stop, the axial ray fan) and written only if all pass. Idempotent.
 
+A table of lenses/zoom-tables/ (one LensVisualizer added after the snapshot in LENSVISUALIZER.git)
+is read instead of the git folder's file of the same path (table_text).
+
 Usage:  /usr/bin/python3 scripts/patent_zooms.py lenses/library LENSVISUALIZER.git build/src/flare
 """
 
