@@ -415,7 +415,7 @@ def match_zoom(lens, info, tables, commit):
     return {"positions": list(zip(names, table["focal_lengths"])), "gaps": gaps,
             "source": (f"the variable gaps at {n} zoom states (infinity focus) and the states' focal lengths are the "
                        f"patent table's, as transcribed in LensVisualizer (github.com/ronbuening/LensVisualizer, "
-                       f"{table['file']}, commit {commit[:12]}; no licence stated there: only the patent's numbers "
+                       f"{table['file']}, commit {(table.get('commit') or commit)[:12]}; no licence stated there: only the patent's numbers "
                        f"are taken, and the radii were matched to this collection file)")}
 
 
