@@ -146,6 +146,16 @@ const PublishedZoom kPublished[] = {
     {"konica-minolta-75-150mm-f4-md-zoom", {77, 101, 146}, {4.1, 4.1, 4.1}},
 };
 
+// A table's gaps reproduce its focal lengths to the patent's own precision: the focal lengths are
+// printed to 3-5 figures, some computed at the e line (0.3-0.5 % shorter than the d-line EFL
+// checked here), the gaps to 0.01 mm (well under 0.1 % of any EFL here). So each merged position
+// lies within 0.5 % of the patent's focal length, tighter than the library check's 1 %: a gap
+// dropped or mis-assigned shows (the unread gap behind a bare STO left the Canon EF-S 18-55 at
+// +0.85 % at tele). The exception: the Nikon 360-1200's patent names 360 / 1200 mm as round values,
+// its gaps give 1188.4 mm at tele (-0.97 %).
+constexpr double kMergedEflRelativeTolerance = 0.005;
+bool roundFocalLengths(const std::string& id) { return id == "nikon-ai-zoom-nikkor-360-1200mm-f11-ed"; }
+
 TEST(ZoomMerges, EachPositionReachesThePatentsFocalLengthAndFNumber) {
     const LensLibrary library = LensLibrary::load({test::sourcePath("lenses/library")});
     double worstEfl = 0.0;
@@ -168,6 +178,8 @@ TEST(ZoomMerges, EachPositionReachesThePatentsFocalLengthAndFNumber) {
             const double relative = para.eflMm / published.focalLengthsMm[i] - 1.0;
             worstEfl = std::max(worstEfl, std::abs(relative));
             EXPECT_LE(std::abs(relative), kEflRelativeTolerance) << z.name << ": EFL " << para.eflMm;
+            if (!roundFocalLengths(published.id))
+                EXPECT_LE(std::abs(relative), kMergedEflRelativeTolerance) << z.name << ": EFL " << para.eflMm;
             // The iris opens to the state's stated f-number, up to its printed rounding.
             EXPECT_LE(para.fNumber, published.fNumbers[i] + kFNumberRounding) << z.name;
         }
