@@ -310,42 +310,80 @@ def separate_stop(lens):
     return None
 
 
-def lensvisualizer_zooms(git_dir):
-    """Zoom tables of the LensVisualizer transcriptions (patent examples with several zoom states).
+# The zoom tables LensVisualizer added after the snapshot its git folder holds (lenses/zoom-tables/,
+# README.md there): the patent's numbers only, each file naming the LensVisualizer file and commit
+# they were read from. Read beside the git folder's; a later table replaces one of the same path.
+LATER_TABLES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lenses", "zoom-tables")
 
-    Returns {radii signature: {"file", "focal_lengths", "gaps": {label: [value per position]},
-    "labels": [surface label per row]}}. Only the patent's numbers are used: the radii (to match a
-    collection file), the zoom states' focal lengths and their variable gaps at infinity focus.
-    """
-    def git(*a):
-        return subprocess.run(["git", "--git-dir", git_dir, *a], capture_output=True, text=True, check=True).stdout
-    number = r"-?\d+(?:\.\d+)?(?:e[-+]?\d+)?"
-    tables = {}
+
+def lensvisualizer_texts(git_dir, later=LATER_TABLES, git=None):
+    """{LensVisualizer path: (text, commit)} of every .data.ts file: the git folder's at HEAD (commit
+    None: the folder's HEAD) and the later tables (`later`/<maker>/<file>, commit from their header)."""
+    if git is None:
+        def git(*a):
+            return subprocess.run(["git", "--git-dir", git_dir, *a], capture_output=True, text=True,
+                                  check=True).stdout
+    texts = {}
     for path in git("ls-tree", "-r", "--name-only", "HEAD", "src/lens-data").split("\n"):
-        if not path.endswith(".data.ts"):
-            continue
-        text = git("show", "HEAD:" + path)
-        zoom = re.search(r"zoomPositions:\s*\[([^\]]*)\]", text)
-        var = re.search(r"\bvar:\s*\{(.*?)\n  \},", text, re.S)
-        if not zoom or not var:
-            continue
-        focal_lengths = [float(x) for x in re.findall(number, zoom.group(1))]
-        rows = re.findall(r'\{\s*label:\s*"([^"]+)",\s*R:\s*(' + number + r')', text)
-        gaps = {}
-        # A gap's label is a quoted string ("27A": ...) or, in some files, a bare number (13: ...).
-        for quoted, bare, body in re.findall(r'(?:"([^"]+)"|\b(\d+[A-Za-z]?)):\s*\[((?:\s*\[[^\]]*\],?)+)\s*\]',
-                                             var.group(1)):
-            label = quoted or bare
-            states = re.findall(r"\[([^\]]*)\]", body)
-            gaps[label] = [float(re.findall(number, st)[0]) for st in states]
-        if len(focal_lengths) < 2 or not rows or any(len(v) != len(focal_lengths) for v in gaps.values()):
-            continue
-        key = tuple(round(float(r), 2) for label, r in rows if label.upper() not in ("STO", "STOP"))
-        # Each row's gap as the surface list prints it (the first state's): merge_zoom_states.py needs
-        # the gap beside a stop that the table places in another air space than a library file does.
-        thick = re.findall(r'\{\s*label:\s*"[^"]+",\s*R:\s*' + number + r',\s*d:\s*(' + number + r')', text)
-        tables[key] = {"file": path, "focal_lengths": focal_lengths, "gaps": gaps, "labels": [lb for lb, _ in rows],
-                       "thicknesses": [float(t) for t in thick] if len(thick) == len(rows) else None}
+        if path.endswith(".data.ts"):
+            texts[path] = (git("show", "HEAD:" + path), None)
+    if later and os.path.isdir(later):
+        for maker in sorted(os.listdir(later)):
+            folder = os.path.join(later, maker)
+            if not os.path.isdir(folder):
+                continue
+            for name in sorted(os.listdir(folder)):
+                if not name.endswith(".data.ts"):
+                    continue
+                with open(os.path.join(folder, name), encoding="utf-8") as f:
+                    text = f.read()
+                commit = re.search(r"\bcommit ([0-9a-f]{12,40})\b", text)
+                if not commit:
+                    raise SystemExit(f"{os.path.join(folder, name)}: names no LensVisualizer commit")
+                texts[f"src/lens-data/{maker}/{name}"] = (text, commit.group(1))
+    return texts
+
+
+def lensvisualizer_table(path, text, commit=None):
+    """One LensVisualizer file's zoom table ({"file", "commit", "text", "focal_lengths", "gaps":
+    {label: [value per position]}, "labels": [surface label per row], "thicknesses"}), or None when it
+    has not several zoom states. Only the patent's numbers are used: the radii (to match a collection
+    file), the zoom states' focal lengths and their variable gaps at infinity focus."""
+    number = r"-?\d+(?:\.\d+)?(?:e[-+]?\d+)?"
+    zoom = re.search(r"zoomPositions:\s*\[([^\]]*)\]", text)
+    var = re.search(r"\bvar:\s*\{(.*?)\n  \},", text, re.S)
+    if not zoom or not var:
+        return None
+    focal_lengths = [float(x) for x in re.findall(number, zoom.group(1))]
+    rows = re.findall(r'\{\s*label:\s*"([^"]+)",\s*R:\s*(' + number + r')', text)
+    gaps = {}
+    # A gap's label is a quoted string ("27A": ...) or, in some files, a bare number (13: ...) or the
+    # bare STO of the gap behind the stop (the gap that row's thickness column holds).
+    for quoted, bare, body in re.findall(r'(?:"([^"]+)"|\b(\d+[A-Za-z]?|STO)):\s*\[((?:\s*\[[^\]]*\],?)+)\s*\]',
+                                         var.group(1)):
+        label = quoted or bare
+        states = re.findall(r"\[([^\]]*)\]", body)
+        gaps[label] = [float(re.findall(number, st)[0]) for st in states]
+    if len(focal_lengths) < 2 or not rows or any(len(v) != len(focal_lengths) for v in gaps.values()):
+        return None
+    # Each row's gap as the surface list prints it (the first state's): merge_zoom_states.py needs
+    # the gap beside a stop that the table places in another air space than a library file does.
+    thick = re.findall(r'\{\s*label:\s*"[^"]+",\s*R:\s*' + number + r',\s*d:\s*(' + number + r')', text)
+    return {"file": path, "commit": commit, "text": text, "focal_lengths": focal_lengths, "gaps": gaps,
+            "labels": [lb for lb, _ in rows], "radii": [float(r) for _, r in rows],
+            "thicknesses": [float(t) for t in thick] if len(thick) == len(rows) else None}
+
+
+def lensvisualizer_zooms(git_dir, later=LATER_TABLES):
+    """Zoom tables of the LensVisualizer transcriptions (patent examples with several zoom states):
+    {radii signature (the refracting rows' radii to 0.01 mm): lensvisualizer_table(...)}."""
+    tables = {}
+    for path, (text, commit) in lensvisualizer_texts(git_dir, later).items():
+        table = lensvisualizer_table(path, text, commit)
+        if table:
+            key = tuple(round(r, 2) for label, r in zip(table["labels"], table["radii"])
+                        if label.upper() not in ("STO", "STOP"))
+            tables[key] = table
     return tables
 
 
@@ -377,7 +415,7 @@ def match_zoom(lens, info, tables, commit):
     return {"positions": list(zip(names, table["focal_lengths"])), "gaps": gaps,
             "source": (f"the variable gaps at {n} zoom states (infinity focus) and the states' focal lengths are the "
                        f"patent table's, as transcribed in LensVisualizer (github.com/ronbuening/LensVisualizer, "
-                       f"{table['file']}, commit {commit[:12]}; no licence stated there: only the patent's numbers "
+                       f"{table['file']}, commit {(table.get('commit') or commit)[:12]}; no licence stated there: only the patent's numbers "
                        f"are taken, and the radii were matched to this collection file)")}
 
 

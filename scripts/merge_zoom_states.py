@@ -30,6 +30,12 @@ cams finely) and is not used. Failures are listed in set-aside.json as `zoom-mer
 ships as its one state). Only the patents' numbers are taken from LensVisualizer (no licence
 stated there). Idempotent.
 
+The tables LensVisualizer transcribed after the snapshot in LENSVISUALIZER.git are read from
+lenses/zoom-tables/ (the patents' numbers only, each naming the file and commit it was read at;
+import_lens_library.lensvisualizer_texts). Where the collection's clear radii would cross at a gap's
+narrowest state they are cut there by the importer's rule (narrowest_cut); STATES leaves out a
+table's states outside the range a lens is named for.
+
 Usage:  /usr/bin/python3 scripts/merge_zoom_states.py lenses/library LENSVISUALIZER.git build/src/flare [--skip ID ...]
 (scripts/import_lens_library.py runs it when given --lensvisualizer.) --skip leaves a library file
 as it is (one being reworked by hand).
@@ -123,10 +129,8 @@ def _same_radii_but_plate(a, b):
     return len(a) == len(b) + 2 and a[-2:] == (0.0, 0.0) and _same_radii(a[:-2], b)
 
 
-def _f_numbers(git_dir, path, count):
+def _f_numbers(text, count):
     """LensVisualizer's nominalFno: a list per state (variable aperture) or None (constant)."""
-    text = subprocess.run(["git", "--git-dir", git_dir, "show", "HEAD:" + path], capture_output=True, text=True,
-                          check=True).stdout
     m = re.search(r"nominalFno:\s*\[([^\]]*)\]", text)
     if not m:
         return None
@@ -171,7 +175,8 @@ def _space_gaps(rows, table):
     everything between two refracting surfaces: the same in both transcriptions, since the radii
     match. Where the file's stop sits in a variable space, its distance to one neighbour is kept: to
     the surface behind it (the stop travels with the group behind it), unless the table puts its
-    stop in the same space and varies the gap behind the stop instead.
+    stop in the same space and varies the gap behind the stop instead (and the file's stop, kept at
+    its distance to the surface in front, stays clear of the surface behind at every state).
     A file may end with a plane-parallel plate (a filter or the sensor's cover glass) that the
     table leaves out, folding it into its back focus as an equivalent air gap: then the gap before
     the plate changes from state to state as the table's back focus does (the plate stays with the
@@ -235,7 +240,10 @@ def _space_gaps(rows, table):
             resplit.append(j + 1)
         table_varies = [max(table_value(r, k) for k in range(n)) - min(table_value(r, k) for k in range(n)) > 1e-9
                         for r in ts]
-        if len(ts) == 2 and table_varies == [False, True]:
+        # The table's stop travelling with the group in front, unless the file's stop sits so far back
+        # in the space that it would then pass the vertex behind it (its place is the collection's,
+        # not the table's: the stop then travels with the group behind it).
+        if len(ts) == 2 and table_varies == [False, True] and min(total) - before >= MIN_STOP_GAP_MM:
             row, values = fs[1], [round(t - before, 6) for t in total]
         else:
             row, values = fs[0], [round(t - behind, 6) for t in total]
@@ -271,6 +279,23 @@ F_NUMBER_OVERRIDES = {
         [2.07, 2.63, 2.90],
         "the patent's F-numbers 2.07 / 2.63 / 2.90 (as LensVisualizer's header quotes them; its nominalFno "
         "[2, 2.5, 2.8] is the marketed f/2-2.8 and is not used)"),
+    "canon-ef28-135mm-f3.5-5.6-is-usm": (
+        [3.6, 4.36, 5.6],
+        "the file's f/3.6 at wide; the patent's f/4.36 at mid (as LensVisualizer's file quotes it; its nominalFno "
+        "4.24 there is that value scaled by a design-to-market ratio and is not used); at tele the marketed f/5.6 "
+        "(nominalFno; the patent's tele F-number is quoted in neither source)"),
+    "nikon-af-zoom-nikkor-28-85mm-f3.5-4.5": (
+        [3.5, 4.0],
+        "the patent's f/3.5-4.0 (US 4,806,000 Example 1, as LensVisualizer's file quotes it; its nominalFno 4.5 at "
+        "tele is the marketed value and is not used)"),
+    "konica-minolta-28-85mm-f3.5-4.5-md-zoom": (
+        [3.6, 4.0, 4.63],
+        "the patent's printed F-numbers 3.6 / 4.0 / 4.63 (JP H01-193709 Example 1, as LensVisualizer's file quotes "
+        "them; its nominalFno 3.637 / 3.967 / 4.63 is its fixed-stop model's)"),
+    "konica-minolta-35-135mm-f3.5-4.5-md-zoom": (
+        [3.608, 4.56],
+        "the patent's F-numbers 3.608 / 4.56 (US 5,249,079 Table 4, as LensVisualizer's file quotes them; its "
+        "nominalFno 3.611 / 4.557 is its fixed-stop model's), the file keeping its f/3.6 at wide"),
 }
 
 
@@ -282,10 +307,36 @@ MODELLED_F_NUMBERS = {
                                                           "LensVisualizer's model (nominalFno 2.064 / 2.357 / 2.875)",
     "tamron-14-150mm-f3.5-5.8-di-iii": "US 2014/0347522 Example 3: LensVisualizer's nominalFno (3.65 / 5.388 / 5.905) "
                                        "is its single fixed-stop fit to the patent's F-numbers, not the patent's",
+    "tamron-sp-150-600mm-f5-6.3-di-vc-usd": "US 10,545,321 B2 Example 4: LensVisualizer's nominalFno (4.994 / 5.872 / "
+                                            "6.541) is its normalised fixed-stop model's, not the patent's",
+    "canon-ef-s55-250mm-f4-5.6-is": "US 7,471,462 Example 2: LensVisualizer's nominalFno at mid (5.1291...) is its "
+                                    "model's, and the patent's F-number there is quoted in neither source",
 }
 
 
-def merged_text(text, table, f_numbers, commit, patent=None, f_number_note=None):
+# Zooms whose patent table has a state outside the range the lens is named for (the name check,
+# docs/lens-library.md "Names", allows 5 %): the table's states kept (0-based), with why. The kept
+# states are the patent's, unchanged.
+STATES = {
+    "canon-ef100-300mm-f5.6": (
+        [1, 2, 3],
+        "JP S61-77818 Example 1 tabulates 69 / 100 / 198 / 290 mm; the 69 mm state lies outside the 100-300 mm the "
+        "lens is named for (and the file holds the 100 mm state), so the positions are the 100, 198 and 290 mm "
+        "states"),
+}
+
+
+def _kept_states(table, f_numbers, lens_id):
+    """The table (and its f-numbers) with only the states STATES keeps for the lens; the note why."""
+    if lens_id not in STATES:
+        return table, f_numbers, None
+    keep, why = STATES[lens_id]
+    table = dict(table, focal_lengths=[table["focal_lengths"][k] for k in keep],
+                 gaps={label: [values[k] for k in keep] for label, values in table["gaps"].items()})
+    return table, [f_numbers[k] for k in keep] if f_numbers else f_numbers, why
+
+
+def merged_text(text, table, f_numbers, commit, patent=None, f_number_note=None, state_note=None):
     """The file with the table's states as zoom positions, or None when the table does not match."""
     lines, rows = _rows(text)
     if not _matches(rows, table["key"]):
@@ -310,6 +361,8 @@ def merged_text(text, table, f_numbers, commit, patent=None, f_number_note=None)
               f"table's{' (' + patent + ')' if patent else ''}, as transcribed in LensVisualizer (github.com/ronbuening/LensVisualizer, {table['file']}, "
               f"commit {commit[:12]}; no licence stated there: only the patent's numbers are taken, and the radii were "
               f"matched to this file), merged by scripts/merge_zoom_states.py")
+    if state_note:
+        source += f"; the zoom positions are the table's states a name allows: {state_note}"
     if held:
         source += f"; this file held the table's state {held + 1} ({names[held]}, its focal length {table['focal_lengths'][held]:g} mm)"
     if resplit:
@@ -357,6 +410,66 @@ def merged_text(text, table, f_numbers, commit, patent=None, f_number_note=None)
                                   (f"  #{comment}" if hash_ else "")).rstrip()
     stated = f_numbers[:held] + [stated_f] + f_numbers[held + 1:] if f_numbers else [stated_f] * n
     return "\n".join(lines2) + "\n", names, stated
+
+
+def _cross(table, semi):
+    """Whether two neighbouring surfaces cross inside their clear radii (the load check's fault)."""
+    for a, b, ra, rb in zip(table, table[1:], semi, semi[1:]):
+        reach = max(ra, rb)
+        if any(a["thickness"] + imp.sag(b["radius"], min(reach * k / 64.0, rb)) -
+               imp.sag(a["radius"], min(reach * k / 64.0, ra)) < 0.0 for k in range(65)):
+            return True
+    return False
+
+
+def narrowest_cut(text):
+    """For a merged file whose surfaces would cross at the narrowest state of a variable gap (the
+    collection's clear radii, mostly estimates, sized for the state it held): the file with its clear
+    radii cut where two surfaces come closer than the importer's minimum edge (0.3 mm of glass, 0.1 mm
+    of air, or half the gap) at that state, the rule the import applied to the state the file held
+    (import_lens_library.cut_pass). None when nothing crosses (a merge that loads keeps its radii).
+    The checks then say whether the axial beam still passes (the ray fan)."""
+    lines, rows = _rows(text)
+    narrowest = {}
+    for line in lines:
+        tokens = line.split("#")[0].split()
+        if tokens and tokens[0] == "gap":
+            narrowest[tokens[1]] = min(float(t.split("=")[1]) for t in tokens[2:])
+    table, semi = [], []
+    for _, tokens in rows:
+        radius, thickness, material, aperture = tokens[:4]
+        table.append({"radius": 0.0 if radius in ("inf", "stop") else float(radius),
+                      "thickness": narrowest[thickness] if thickness in narrowest else
+                      (0.0 if thickness == "auto" else float(thickness)),
+                      "nd": 1.0 if material == "air" else float(material.split("/")[0]) if "/" in material else 1.5,
+                      "stop": radius == "stop"})
+        semi.append(float(aperture) if aperture != IRIS else 0.0)
+    if not _cross(table, semi):
+        return None
+    before = list(semi)
+    for _ in range(len(rows)):
+        if not imp.cut_pass(table, semi):
+            break
+    # A cut below 1 um is the bisection's and the file's rounding (the import cut there already).
+    cut = [i for i in range(len(rows)) if semi[i] < before[i] - 1e-3]
+    if not cut:
+        return None
+    note = ("# Clear radii cut back for the narrowest state of each variable gap, where surfaces would cross there "
+            "(the importer's rule, which it applied to the state the file held): " +
+            ", ".join(f"row {i + 1}: {before[i]:g} -> {math.floor(semi[i] * 1e4) / 1e4:g} mm" for i in cut) +
+            ". Merged by scripts/merge_zoom_states.py.")
+    out = list(lines)
+    for i in cut:
+        line_index, tokens = rows[i]
+        body, hash_, comment = out[line_index].partition("#")
+        parts = body.split()
+        parts[3] = f"{math.floor(semi[i] * 1e4) / 1e4:g}"
+        out[line_index] = (f"   {parts[0]:<13s} {parts[1]:<11s} {parts[2]:<17s} {parts[3]:<10s}" +
+                           (" " + " ".join(parts[4:]) if len(parts) > 4 else "") +
+                           (f"  #{comment}" if hash_ else "")).rstrip()
+    at = next(i for i, line in enumerate(out) if line.startswith("name "))
+    out.insert(at, note)
+    return "\n".join(out) + "\n"
 
 
 IRIS = "iris"
@@ -436,6 +549,10 @@ def apply(folder, git_dir, flare, skip=()):
     merged, failed = [], []
     staging = tempfile.mkdtemp(prefix="flare-zoom-merge-")
     candidates = []
+    # A zoom whose table's f-numbers are a model's is not merged (docs/lens-library.md): an earlier
+    # run's merge failure of it no longer stands.
+    aside["set_aside"] = [e for e in aside["set_aside"]
+                          if not (e.get("id") in MODELLED_F_NUMBERS and e["cause"].startswith("zoom-merge"))]
     for entry in index["lenses"]:
         if "zoom-first-position-only" not in entry["tags"] or entry["id"] in skip or entry["id"] in MODELLED_F_NUMBERS:
             continue
@@ -448,15 +565,18 @@ def apply(folder, git_dir, flare, skip=()):
                  next((t for k, t in tables.items() if _matches(rows, k)), None))
         if not table or len(table["focal_lengths"]) > MAX_STATES:
             continue
-        f_numbers = _f_numbers(git_dir, table["file"], len(table["focal_lengths"]))
+        f_numbers = _f_numbers(table["text"], len(table["focal_lengths"]))
+        table, f_numbers, state_note = _kept_states(table, f_numbers, entry["id"])
         patent = f"{entry['patent']} Example {entry['example']}" if entry.get("patent") and entry.get("example") else None
         f_number_note = None
         if entry["id"] in F_NUMBER_OVERRIDES:
             f_numbers, f_number_note = F_NUMBER_OVERRIDES[entry["id"]]
-        result = merged_text(text, table, f_numbers, commit, patent, f_number_note)
+        result = merged_text(text, table, f_numbers, table.get("commit") or commit, patent, f_number_note,
+                             state_note)
         if not result:
             continue
         new_text, names, stated = result
+        new_text = narrowest_cut(new_text) or new_text
         candidates.append([entry, path, new_text, names, table, stated])
     try:
         # First with the file's stop as it is; then, where a position's stop does not open to its

@@ -1,0 +1,41 @@
+// The patent's numbers of US 7,158,320 Example 3 as LensVisualizer transcribes them
+// (src/lens-data/canon/CanonEF100300mmf4556USM.data.ts, commit 56c99ef6bf15): radii, gaps, the
+// zoom states' focal lengths, variable gaps at infinity focus and F-numbers. Rows only (no glass).
+const LENS_DATA = {
+  surfaces: [
+    { label: "1", R: 137.517, d: 2.7, nd: 1.805181, elemId: 1 },
+    { label: "2", R: 110.315, d: 0.1, nd: 1.72104, elemId: 2 },
+    { label: "3", R: 94.141, d: 7.4, nd: 1.51633, elemId: 3 },
+    { label: "4", R: -241.704, d: 0.2, nd: 1.0, elemId: 0 },
+    { label: "5", R: 63.269, d: 4.4, nd: 1.48749, elemId: 4 },
+    { label: "6", R: 125.749, d: 3.18, nd: 1.0, elemId: 0 },
+    { label: "7", R: -70.692, d: 1.4, nd: 1.834807, elemId: 5 },
+    { label: "8", R: 37.864, d: 3.6, nd: 1.0, elemId: 0 },
+    { label: "9", R: 46.573, d: 3.5, nd: 1.846658, elemId: 6 },
+    { label: "10", R: 5731.432, d: 25.9, nd: 1.0, elemId: 0 },
+    { label: "STO", R: 1e15, d: 5.03, nd: 1.0, elemId: 0 },
+    { label: "12", R: -244.087, d: 1.6, nd: 1.846658, elemId: 7 },
+    { label: "13", R: 114.052, d: 2.6, nd: 1.0, elemId: 0 },
+    { label: "14", R: 108.677, d: 4.8, nd: 1.603112, elemId: 8 },
+    { label: "15", R: -44.123, d: 3.28, nd: 1.0, elemId: 0 },
+    { label: "16", R: 76.581, d: 5.5, nd: 1.48749, elemId: 9 },
+    { label: "17", R: -41.037, d: 1.8, nd: 1.834, elemId: 10 },
+    { label: "18", R: -183.385, d: 0.2, nd: 1.0, elemId: 0 },
+    { label: "19", R: 70.476, d: 3.4, nd: 1.607289, elemId: 11 },
+    { label: "20", R: -215.479, d: 26.73, nd: 1.0, elemId: 0 },
+    { label: "21", R: -246.027, d: 1.1, nd: 1.834807, elemId: 12 },
+    { label: "22", R: 41.908, d: 1.0, nd: 1.0, elemId: 0 },
+    { label: "23", R: 423.592, d: 1.2, nd: 1.834807, elemId: 13 },
+    { label: "24", R: 23.142, d: 3.2, nd: 1.784718, elemId: 14 },
+    { label: "25", R: 204.169, d: 44.50790941, nd: 1.0, elemId: 0 },
+  ],
+  var: {
+    "6": [[3.18], [29.07], [51.68]],
+    "10": [[25.9], [10.05], [2.66]],
+    "15": [[3.28], [19.13], [26.53]],
+    "20": [[26.73], [17.28], [1.73]],
+    "25": [[44.50790941], [53.963874527], [69.498779575]],
+  },
+  zoomPositions: [103.35, 173.68, 291.85],
+  nominalFno: [4.65, 5.21, 5.8],
+};

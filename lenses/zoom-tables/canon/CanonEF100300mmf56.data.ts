@@ -1,0 +1,41 @@
+// The patent's numbers of JP S61-77818 (the library's JP 1986-077818) Example 1 as LensVisualizer
+// transcribes them (src/lens-data/canon/CanonEF100300mmf56.data.ts, commit 45f08e3d5d57): radii,
+// gaps, the four zoom states' focal lengths (69 / 100 / 198 / 290 mm), variable gaps at infinity
+// focus and the F-number. Rows only (no glass).
+const LENS_DATA = {
+  surfaces: [
+    { label: "1", R: 111.88, d: 2.86, nd: 1.80518, elemId: 1 },
+    { label: "2", R: 70.93, d: 7.06, nd: 1.51633, elemId: 2 },
+    { label: "3", R: 6607.27, d: 0.2, nd: 1, elemId: 0 },
+    { label: "4", R: 123.63, d: 4.66, nd: 1.48749, elemId: 3 },
+    { label: "5", R: -879.4, d: 2.43, nd: 1, elemId: 0 },
+    { label: "6", R: -165.22, d: 1.48, nd: 1.713, elemId: 4 },
+    { label: "7", R: 60.19, d: 5.61, nd: 1, elemId: 0 },
+    { label: "8", R: -68.62, d: 1.5, nd: 1.6968, elemId: 5 },
+    { label: "9", R: 41.25, d: 4.43, nd: 1.80518, elemId: 6 },
+    { label: "10", R: 580.21, d: 48.65, nd: 1, elemId: 0 },
+    { label: "11", R: 104.4, d: 7, nd: 1.52301, elemId: 7 },
+    { label: "12", R: -30.98, d: 2.07, nd: 1.80518, elemId: 8 },
+    { label: "13", R: -56.66, d: 26.9, nd: 1, elemId: 0 },
+    { label: "STO", R: 1e15, d: 1.97, nd: 1, elemId: 0 },
+    { label: "15", R: 24.23, d: 8.47, nd: 1.60311, elemId: 9 },
+    { label: "16", R: -304.22, d: 1.48, nd: 1.7725, elemId: 10 },
+    { label: "17", R: 73.54, d: 1.18, nd: 1, elemId: 0 },
+    { label: "18", R: 41.01, d: 1.97, nd: 1.834, elemId: 11 },
+    { label: "19", R: 15.56, d: 6.88, nd: 1.60729, elemId: 12 },
+    { label: "20", R: 54.65, d: 5.34, nd: 1, elemId: 0 },
+    { label: "21", R: 5519.93, d: 3.45, nd: 1.57501, elemId: 13 },
+    { label: "22", R: -47.97, d: 5.32, nd: 1, elemId: 0 },
+    { label: "23", R: -20.93, d: 0.99, nd: 1.804, elemId: 14 },
+    { label: "24", R: 27.35, d: 5.29, nd: 1.61293, elemId: 15 },
+    { label: "25", R: -38.38, d: 56.9673404667, nd: 1, elemId: 0 },
+  ],
+  zoomPositions: [69, 100, 198, 290],
+  var: {
+    "5": [[2.43], [2.43], [44.08], [57.34]],
+    "10": [[48.65], [34.78], [17.47], [1.53]],
+    "13": [[26.9], [7.68], [4.17], [13.48]],
+    "25": [[56.9673404667], [82.5677909364], [82.5413136604], [82.5313860277]],
+  },
+  nominalFno: 5.6,
+};

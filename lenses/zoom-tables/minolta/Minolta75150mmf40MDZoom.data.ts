@@ -1,0 +1,51 @@
+// The patent's numbers of JP S56-150717 A Example 1 as LensVisualizer transcribes them
+// (src/lens-data/minolta/Minolta75150mmf40MDZoom.data.ts, commit c8bc9fdbd1e9): radii, thicknesses,
+// nd/Vd, the zoom states' focal lengths (77 / 101 / 146 mm), variable gaps at infinity focus and the
+// F-number (F/4.1). The patent marks no stop: the STO row 0.1 mm in front of surface ra (the master
+// group) is LensVisualizer's choice, so the patent's d13 appears as d13 - 0.1 there.
+const LENS_DATA = {
+  elements: [
+    { id: 1, nd: 1.5168, vd: 64.1 },
+    { id: 2, nd: 1.5168, vd: 64.1 },
+    { id: 3, nd: 1.80518, vd: 25.5 },
+    { id: 4, nd: 1.80518, vd: 25.5 },
+    { id: 5, nd: 1.62135, vd: 61.3 },
+    { id: 6, nd: 1.7495, vd: 50.1 },
+    { id: 7, nd: 1.58913, vd: 61.1 },
+    { id: 8, nd: 1.74, vd: 28.3 },
+    { id: 9, nd: 1.65844, vd: 50.9 },
+    { id: 10, nd: 1.80741, vd: 31.6 },
+    { id: 11, nd: 1.6727, vd: 32.2 },
+    { id: 12, nd: 1.671, vd: 51.8 },
+  ],
+  surfaces: [
+    { label: "r1", R: 104.167, d: 5.0, nd: 1.5168, elemId: 1 },
+    { label: "r2", R: -236.46, d: 0.15, nd: 1.0, elemId: 0 },
+    { label: "r3", R: 77.526, d: 4.5, nd: 1.5168, elemId: 2 },
+    { label: "r4", R: -740.25, d: 1.5, nd: 1.80518, elemId: 3 },
+    { label: "r5", R: 163.171, d: 2.5, nd: 1.0, elemId: 0 },
+    { label: "r6", R: 659.8, d: 3.3, nd: 1.80518, elemId: 4 },
+    { label: "r7", R: -47.276, d: 1.2, nd: 1.62135, elemId: 5 },
+    { label: "r8", R: 60.365, d: 2.8, nd: 1.0, elemId: 0 },
+    { label: "r9", R: -50.922, d: 1.2, nd: 1.7495, elemId: 6 },
+    { label: "r10", R: 152.384, d: 25.26, nd: 1.0, elemId: 0 },
+    { label: "r11", R: 125.393, d: 4.6, nd: 1.58913, elemId: 7 },
+    { label: "r12", R: -32.959, d: 1.2, nd: 1.74, elemId: 8 },
+    { label: "r13", R: -74.345, d: 8.33, nd: 1.0, elemId: 0 },
+    { label: "STO", R: 1e15, d: 0.1, nd: 1.0, elemId: 0 },
+    { label: "ra", R: 31.818, d: 6.0, nd: 1.65844, elemId: 9 },
+    { label: "rb", R: -75.054, d: 1.5, nd: 1.80741, elemId: 10 },
+    { label: "rc", R: 86.257, d: 22.0, nd: 1.0, elemId: 0 },
+    { label: "rd", R: 92.756, d: 3.2, nd: 1.6727, elemId: 11 },
+    { label: "re", R: -129.315, d: 12.0, nd: 1.0, elemId: 0 },
+    { label: "rf", R: -22.367, d: 1.5, nd: 1.671, elemId: 12 },
+    { label: "rg", R: -53.427, d: 42.100622, nd: 1.0, elemId: 0 },
+  ],
+  zoomPositions: [77, 101, 146],
+  var: {
+    "r5": [[2.5], [16.49], [30.49]],
+    "r10": [[25.26], [16.95], [1.2]],
+    "r13": [[8.33], [2.64], [4.4]],
+  },
+  nominalFno: 4.1,
+};
