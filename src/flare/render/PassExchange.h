@@ -26,8 +26,14 @@ public:
     // `all` keeps its buffers from call to call: a pass's messages are tens of MB, and fresh
     // memory every pass costs page faults.
     virtual void gatherAtRoot(const std::vector<char>& mine, std::vector<std::vector<char>>& all) = 0;
+    // Collective: `out[q]` of every rank at rank q, in its `in` indexed by the sending rank (a
+    // rank's own entry is left empty: what it keeps stays where it is). `in` keeps its buffers
+    // from call to call, as gatherAtRoot's `all`.
+    virtual void allToAll(const std::vector<std::vector<char>>& out, std::vector<std::vector<char>>& in) = 0;
     // Collective: rank 0's `value` at every rank.
     virtual int broadcastFromRoot(int value) = 0;
+    // Collective: rank 0's `values` at every rank (every rank passes as many).
+    virtual void broadcastFromRoot(std::vector<int>& values) = 0;
 };
 
 // Rank 0's share of a pass's jobs is rootShare / kShareSteps.
