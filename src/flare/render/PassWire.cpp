@@ -207,11 +207,13 @@ void writeBandImage(int band, int layer, bool inTotal, const double* rows, int w
     std::memcpy(out.data() + countAt, &runs, sizeof runs);
 }
 
-void writeBandCosts(int firstBand, const std::vector<double>& seconds, double phaseS, std::vector<char>& out) {
+void writeBandCosts(int firstBand, const std::vector<double>& seconds, double phaseS, double phaseCpuS,
+                    std::vector<char>& out) {
     put(out, kBandCostsTag);
     put(out, static_cast<std::int32_t>(firstBand));
     putArray(out, seconds);
     put(out, phaseS);
+    put(out, phaseCpuS);
 }
 
 namespace {
@@ -245,6 +247,7 @@ BandMessage readBandMessage(const std::vector<char>& message, int widthPx, int h
             read.firstBand = in.get<std::int32_t>();
             read.bandSeconds = in.getArray<double>();
             read.phaseS = in.get<double>();
+            read.phaseCpuS = in.get<double>();
             if (read.firstBand < 0 || read.firstBand + static_cast<long>(read.bandSeconds.size()) > bands)
                 in.fail("band costs out of range");
             continue;

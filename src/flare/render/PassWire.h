@@ -45,7 +45,8 @@ struct PassMessage {
 // zeros). Appended to a band owner's message, after its bands' rasterising costs.
 void writeBandImage(int band, int layer, bool inTotal, const double* rows, int widthPx, int heightPx,
                     std::vector<char>& out);
-void writeBandCosts(int firstBand, const std::vector<double>& seconds, double phaseS, std::vector<char>& out);
+void writeBandCosts(int firstBand, const std::vector<double>& seconds, double phaseS, double phaseCpuS,
+                    std::vector<char>& out);
 struct BandImage {
     int band = 0, layer = 0;
     bool inTotal = true;
@@ -55,7 +56,7 @@ struct BandMessage {
     std::vector<BandImage> images;  // in the order written
     int firstBand = 0;
     std::vector<double> bandSeconds;  // the owner's time rasterising each of its bands
-    double phaseS = 0.0;              // its time from the exchange of the beams to sending the bands
+    double phaseS = 0.0, phaseCpuS = 0.0;  // its time from the exchange of the beams to sending the bands
 };
 // Reads a band owner's message (bands of a film widthPx × heightPx, bandCount of them).
 BandMessage readBandMessage(const std::vector<char>& message, int widthPx, int heightPx);

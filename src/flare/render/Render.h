@@ -238,7 +238,7 @@ struct RenderStatistics {
 // time tracing and encoding theirs (their mean per pass, as they report it); rank 0's time
 // waiting for and receiving the others' results and their bands, and the bytes; rank 0's share
 // of the bands (summed) and its time decoding the others' results, rasterising its bands and
-// splatting every band's hits; the others' time rasterising theirs (their mean, as they report
+// splatting every band's hits (besidesBandsS: the decoding and the hits, wall); the others' time rasterising theirs (their mean, as they report
 // it); rank 0's time adding the others' bands and ending the pass. docs/scaling.md models renders
 // on many nodes from them.
 struct ExchangeCosts {
@@ -247,7 +247,7 @@ struct ExchangeCosts {
     double traceS = 0.0, traceCpuS = 0.0;
     double othersTraceS = 0.0, othersTraceCpuS = 0.0;
     double gatherS = 0.0, bytesReceived = 0.0;
-    double rootBands = 0.0, bandsS = 0.0, bandsCpuS = 0.0, othersBandsS = 0.0;
+    double rootBands = 0.0, bandsS = 0.0, bandsCpuS = 0.0, besidesBandsS = 0.0, othersBandsS = 0.0, othersBandsCpuS = 0.0;
     double mergeS = 0.0, mergeCpuS = 0.0;
 };
 // The renderer's internals: its plan (RenderPlan.h) and the strategies' work (PhotonBatches.h,

@@ -232,6 +232,7 @@ void Renderer::runDistributedPass() {
         exchange.allToAll(d.outboxes, d.inbox);
         // The others' beams, cut to this rank's bands, beside its own; its bands' images to rank 0.
         const auto phaseStart = std::chrono::steady_clock::now();
+        const double phaseCpuStart = renderer::cpuSeconds();
         for (int q = 0; q < ranks; ++q)
             if (q != rank) renderer::readPassResults(d.inbox[q], frame, batches_, d.beamJobs);
         const int first = d.bandStart[rank], count = d.bandStart[rank + 1] - first;
@@ -243,7 +244,8 @@ void Renderer::runDistributedPass() {
             });
         d.bandsOut.clear();
         for (const std::vector<char>& image : images) d.bandsOut.insert(d.bandsOut.end(), image.begin(), image.end());
-        renderer::writeBandCosts(first, seconds, renderer::secondsSince(phaseStart), d.bandsOut);
+        renderer::writeBandCosts(first, seconds, renderer::secondsSince(phaseStart),
+                                 renderer::cpuSeconds() - phaseCpuStart, d.bandsOut);
         exchange.gatherAtRoot(d.bandsOut, d.bandsIn);
         broadcastSplit();
         ++exchangeCosts_.passes;
@@ -322,7 +324,8 @@ void Renderer::runDistributedPass() {
     d.besidesBandsS.assign(static_cast<size_t>(ranks), 0.0);
     std::copy(ownSeconds.begin(), ownSeconds.end(), d.bandSeconds.begin() + firstOwn);
     d.besidesBandsS[0] = std::max(0.0, rootBandsS - std::accumulate(ownSeconds.begin(), ownSeconds.end(), 0.0));
-    double othersBandsS = 0.0;
+    exchangeCosts_.besidesBandsS += d.besidesBandsS[0];
+    double othersBandsS = 0.0, othersBandsCpuS = 0.0;
     for (int r = 1; r < ranks; ++r) {
         const renderer::BandMessage message = renderer::readBandMessage(d.bandsIn[r], width, height);
         exchangeCosts_.bytesReceived += static_cast<double>(d.bandsIn[r].size());
@@ -340,8 +343,10 @@ void Renderer::runDistributedPass() {
         d.besidesBandsS[r] =
             std::max(0.0, message.phaseS - std::accumulate(message.bandSeconds.begin(), message.bandSeconds.end(), 0.0));
         othersBandsS += message.phaseS;
+        othersBandsCpuS += message.phaseCpuS;
     }
     exchangeCosts_.othersBandsS += othersBandsS / (ranks - 1);
+    exchangeCosts_.othersBandsCpuS += othersBandsCpuS / (ranks - 1);
     // The next pass's share and bands, which the others use as soon as they have them.
     d.rootShare = renderer::balancedRootShare(d, jobs, ranks);
     d.bandStart = renderer::balancedBands(d.bandSeconds, d.besidesBandsS);

@@ -158,11 +158,12 @@ TEST(PassWire, ABandImageReadBackAddsToTheFilmAsItsBuffer) {
         direct.addBand(band, 1, rows.data(), band % 2 == 0);
         renderer::writeBandImage(band, 1, band % 2 == 0, rows.data(), frame.widthPx, frame.heightPx, message);
     }
-    renderer::writeBandCosts(0, std::vector<double>(bands, 0.25), 3.0, message);
+    renderer::writeBandCosts(0, std::vector<double>(bands, 0.25), 3.0, 1.5, message);
     const renderer::BandMessage read = renderer::readBandMessage(message, frame.widthPx, frame.heightPx);
     ASSERT_EQ(read.images.size(), static_cast<size_t>(bands));
     EXPECT_EQ(read.bandSeconds.size(), static_cast<size_t>(bands));
     EXPECT_EQ(read.phaseS, 3.0);
+    EXPECT_EQ(read.phaseCpuS, 1.5);
     // Only the runs holding light travel: the disk covers under a third of the frame.
     EXPECT_LT(message.size(), static_cast<size_t>(frame.widthPx) * frame.heightPx * 3 * sizeof(double) / 3);
     std::vector<double> rows;
