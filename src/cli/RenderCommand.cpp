@@ -89,8 +89,9 @@ int run(const RenderCommandOptions& o) {
 
     // Every output is checked before any work (a long render must not fail at its end) and they
     // are written all or nothing, the final checkpoint with them.
-    // Under mpirun, every rank traces its share of each pass and rank 0 merges them, decides when
-    // to stop and writes everything (docs/distributed.md); the other ranks print nothing.
+    // Under mpirun, every rank traces its share of each pass and rasterises its share of the film's
+    // bands, and rank 0 merges the rest, decides when to stop and writes everything
+    // (docs/distributed.md); the other ranks print nothing.
     Processes& processes = Processes::world();
     const bool writer = processes.root();
     const bool quiet = o.quiet || !writer;
@@ -159,7 +160,7 @@ int run(const RenderCommandOptions& o) {
     }
 
     const RenderStopRule stop = RenderStopRule::make(scene, options, o.photons > 0 ? o.photons : 0, o.timeS, o.targetError);
-    // (The ranks trace a pass ahead while rank 0 merges: none beyond the last.)
+    // (The ranks trace a pass ahead while rank 0 ends the last: none beyond the last pass.)
     if (stop.passesWanted > 0) renderer.setPassLimit(static_cast<int>(std::min<std::int64_t>(stop.passesWanted, std::numeric_limits<int>::max())));
 
     auto lastCheckpoint = std::chrono::steady_clock::now();

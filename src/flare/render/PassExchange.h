@@ -4,12 +4,14 @@
 //
 // A pass's work is a fixed list of jobs, the same for any number of processes: its beams, then its
 // photon batches, each with random numbers of its own (Render.h). The ranks trace the jobs
-// (jobRank: rank 0 a share it adjusts, since it alone merges, the others the rest in turn) and
-// send what they produced (PassWire.h) to rank 0, which puts every job's result in its place and
-// merges the pass into the film exactly as one process does: same jobs, same order, same sums.
-// The other ranks trace the next pass while rank 0 merges (they need nothing from the film). So
-// the image, the tallies and the report are bitwise those of one process, for any number of
-// processes and threads, and a checkpoint written by R processes resumes with any other number.
+// (jobRank: rank 0 a share it adjusts, since it alone ends the pass, the others the rest in turn)
+// and exchange what they produced (PassWire.h, allToAll): each rank owns a group of the film's
+// bands and rasterises every beam over them, and rank 0, which holds the film, splats every hit,
+// adds the owners' band images and ends the pass exactly as one process does: same jobs, same
+// order in every band, same sums. The other ranks trace the next pass while rank 0 ends this one
+// (they need nothing from the film). So the image, the tallies and the report are bitwise those
+// of one process, for any number of processes and threads, and a checkpoint written by R
+// processes resumes with any other number.
 #pragma once
 
 #include <vector>

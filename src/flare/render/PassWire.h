@@ -1,11 +1,14 @@
-// The bytes a rank sends rank 0 after tracing its share of a pass (PassExchange.h): per job its
-// index and what the merge reads of its result (a batch's hits, tallies and statistics; a beam's
-// triangles as GhostBeam::rasterise reads them, its rim's segments, jitter, scale, seed, hits and
-// power), copied bit for bit, so that rank 0's merge sees exactly what its own trace would have
-// produced. A beam read back is good for the merge alone: its triangles' pupil points (the mesh's,
-// for twins and for building a rim) are not sent, and its rim comes built. Both ends run the same
-// build; a short or inconsistent message is an internal error (std::runtime_error). Internal to
-// the renderer.
+// The bytes ranks send each other in a shared pass (PassExchange.h). After tracing its share, a
+// rank sends per job its index and what the merge reads of its result, copied bit for bit: to
+// rank 0 a batch's hits, tallies and statistics and a beam's hits, power and rays; to the owner
+// of a group of the film's bands, the part of a beam that reaches them (its triangles as
+// GhostBeam::rasterise reads them, with their indices in the beam, its rim's segments reaching
+// them, jitter, scale and seed), so that the owner rasterises those bands exactly as the tracing
+// rank would have. A beam read back is good for the merge alone: its triangles' pupil points (the
+// mesh's, for twins and for building a rim) are not sent, and its rim comes built. After
+// rasterising, a band owner sends rank 0 its bands' images (writeBandImage). Both ends run the
+// same build; a short or inconsistent message is an internal error (std::runtime_error). Internal
+// to the renderer.
 #pragma once
 
 #include <cstdint>
