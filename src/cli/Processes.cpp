@@ -24,7 +24,14 @@ void Processes::gatherAtRoot(const std::vector<char>&, std::vector<std::vector<c
     all[0].clear();
 }
 
+void Processes::allToAll(const std::vector<std::vector<char>>&, std::vector<std::vector<char>>& in) {
+    in.resize(1);
+    in[0].clear();
+}
+
 int Processes::broadcastFromRoot(int value) { return value; }
+
+void Processes::broadcastFromRoot(std::vector<int>&) {}
 
 void Processes::barrier() {}
 

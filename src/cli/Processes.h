@@ -26,7 +26,9 @@ public:
     bool root() const { return rank_ == 0; }
 
     void gatherAtRoot(const std::vector<char>& mine, std::vector<std::vector<char>>& all) override;
+    void allToAll(const std::vector<std::vector<char>>& out, std::vector<std::vector<char>>& in) override;
     int broadcastFromRoot(int value) override;
+    void broadcastFromRoot(std::vector<int>& values) override;
     // Collective: returns when every rank has called it.
     void barrier();
     // Ends every rank with `code` (an error on one rank, which the others would wait for forever).

@@ -21,7 +21,7 @@ bool startedByMpirun() {
 
 // Messages go in pieces of at most 1 GiB (MPI counts are ints).
 constexpr std::uint64_t kPieceBytes = std::uint64_t(1) << 30;
-constexpr int kGatherTag = 31;
+constexpr int kGatherTag = 31, kAllToAllTag = 32;
 
 struct MpiSession {
     bool active = false;
@@ -72,6 +72,34 @@ void Processes::gatherAtRoot(const std::vector<char>& mine, std::vector<std::vec
             MPI_Recv(all[r].data() + at, static_cast<int>(std::min(kPieceBytes, sizes[r] - at)), MPI_BYTE, r,
                      kGatherTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
     }
+}
+
+void Processes::allToAll(const std::vector<std::vector<char>>& out, std::vector<std::vector<char>>& in) {
+    if (size_ == 1) return;
+    std::vector<std::uint64_t> sending(size_), receiving(size_);
+    for (int r = 0; r < size_; ++r) sending[r] = r == rank_ ? 0 : out[r].size();
+    MPI_Alltoall(sending.data(), 1, MPI_UINT64_T, receiving.data(), 1, MPI_UINT64_T, MPI_COMM_WORLD);
+    in.resize(size_);
+    in[rank_].clear();
+    // Every piece to and from every other rank at once (nonblocking), so that no pair of ranks
+    // waits on the other's send.
+    std::vector<MPI_Request> requests;
+    for (int r = 0; r < size_; ++r) {
+        if (r == rank_) continue;
+        in[r].resize(receiving[r]);
+        for (std::uint64_t at = 0; at < receiving[r]; at += kPieceBytes)
+            MPI_Irecv(in[r].data() + at, static_cast<int>(std::min(kPieceBytes, receiving[r] - at)), MPI_BYTE, r,
+                      kAllToAllTag, MPI_COMM_WORLD, &requests.emplace_back());
+        for (std::uint64_t at = 0; at < sending[r]; at += kPieceBytes)
+            MPI_Isend(out[r].data() + at, static_cast<int>(std::min(kPieceBytes, sending[r] - at)), MPI_BYTE, r,
+                      kAllToAllTag, MPI_COMM_WORLD, &requests.emplace_back());
+    }
+    MPI_Waitall(static_cast<int>(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
+}
+
+void Processes::broadcastFromRoot(std::vector<int>& values) {
+    if (size_ > 1 && !values.empty())
+        MPI_Bcast(values.data(), static_cast<int>(values.size()), MPI_INT, 0, MPI_COMM_WORLD);
 }
 
 int Processes::broadcastFromRoot(int value) {

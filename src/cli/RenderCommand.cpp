@@ -90,8 +90,9 @@ int run(const RenderCommandOptions& o) {
 
     // Every output is checked before any work (a long render must not fail at its end) and they
     // are written all or nothing, the final checkpoint with them.
-    // Under mpirun, every rank traces its share of each pass and rank 0 merges them, decides when
-    // to stop and writes everything (docs/distributed.md); the other ranks print nothing.
+    // Under mpirun, every rank traces its share of each pass and rasterises its share of the film's
+    // bands, and rank 0 merges the rest, decides when to stop and writes everything
+    // (docs/distributed.md); the other ranks print nothing.
     Processes& processes = Processes::world();
     const bool writer = processes.root();
     const bool quiet = o.quiet || !writer;
@@ -161,7 +162,7 @@ int run(const RenderCommandOptions& o) {
     }
 
     const RenderStopRule stop = RenderStopRule::make(scene, options, o.photons > 0 ? o.photons : 0, o.timeS, o.targetError);
-    // (The ranks trace a pass ahead while rank 0 merges: none beyond the last.)
+    // (The ranks trace a pass ahead while rank 0 ends the last: none beyond the last pass.)
     if (stop.passesWanted > 0) renderer.setPassLimit(static_cast<int>(std::min<std::int64_t>(stop.passesWanted, std::numeric_limits<int>::max())));
 
     auto lastCheckpoint = std::chrono::steady_clock::now();
@@ -269,10 +270,13 @@ int run(const RenderCommandOptions& o) {
             std::fprintf(stderr,
                          "  %d ranks, per pass (wall s / CPU s): rank 0 traced %.0f%% of the jobs in %.3g / %.3g, each "
                          "other rank traced and encoded its share in %.3g / %.3g; rank 0 waited for and received %.3g "
-                         "MB in %.3g, decoded and merged in %.3g / %.3g\n",
+                         "MB in %.3g, decoded the others' jobs, rasterised %.0f%% of the bands and splatted every hit "
+                         "in %.3g / %.3g (%.3g besides its bands), each other rank decoded, rasterised and encoded its bands in %.3g / %.3g; rank 0 added their bands and "
+                         "ended the pass in %.3g / %.3g\n",
                          processes.size(), 100.0 * c.rootShare * perPass, c.traceS * perPass, c.traceCpuS * perPass,
                          c.othersTraceS * perPass, c.othersTraceCpuS * perPass, c.bytesReceived * perPass / 1e6,
-                         c.gatherS * perPass, c.mergeS * perPass, c.mergeCpuS * perPass);
+                         c.gatherS * perPass, 100.0 * c.rootBands * perPass, c.bandsS * perPass,
+                         c.bandsCpuS * perPass, c.besidesBandsS * perPass, c.othersBandsS * perPass, c.othersBandsCpuS * perPass, c.mergeS * perPass, c.mergeCpuS * perPass);
         }
         for (const LightPlan& l : renderer.lights())
             if (l.skipped) std::fprintf(stderr, "  skipped light %s: %s\n", l.name.c_str(), l.skipReason.c_str());

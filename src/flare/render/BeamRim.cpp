@@ -159,6 +159,18 @@ BeamRim BeamRim::fromSegments(std::vector<Segment> segments, double edgeScalePx,
     return rim;
 }
 
+std::vector<std::uint32_t> BeamRim::segmentsReaching(int firstBand, int lastBand) const {
+    const int bands = static_cast<int>(bandStart_.size()) - 1;
+    firstBand = std::max(firstBand, 0);
+    lastBand = std::min(lastBand, bands - 1);
+    if (firstBand > lastBand) return {};
+    std::vector<std::uint32_t> reaching(bandSegments_.begin() + bandStart_[firstBand],
+                                        bandSegments_.begin() + bandStart_[lastBand + 1]);
+    std::sort(reaching.begin(), reaching.end());
+    reaching.erase(std::unique(reaching.begin(), reaching.end()), reaching.end());
+    return reaching;
+}
+
 void BeamRim::indexBands(int heightPx) {
     // By band, as GhostBeam's triangles: the rows a segment's wedge reaches ± the jitter.
     const int bands = std::max(1, (heightPx + Film::kBandRows - 1) / Film::kBandRows);

@@ -16,6 +16,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <functional>
 #include <vector>
 
@@ -64,6 +65,9 @@ public:
         double rowMin = 0.0, rowMax = 0.0, columnMin = 0.0, columnMax = 0.0;  // the wedge's reach
     };
     const std::vector<Segment>& segments() const { return segments_; }
+    // The segments rasterise reads over the bands [firstBand, lastBand], by index, ascending: a
+    // rim of them alone (fromSegments) rasterises those bands bit for bit as the whole rim.
+    std::vector<std::uint32_t> segmentsReaching(int firstBand, int lastBand) const;
     // A rim of segments that build() made (another process's beam, PassWire.h: sent as they are
     // rather than rebuilt from the triangles' pupil points), for a film heightPx rows high.
     static BeamRim fromSegments(std::vector<Segment> segments, double edgeScalePx, int heightPx);

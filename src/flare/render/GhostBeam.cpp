@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <stdexcept>
 
 #include <glm/geometric.hpp>
 #include <glm/mat2x2.hpp>
@@ -206,13 +207,29 @@ GhostBeam GhostBeam::build(const BundleTracer& tracer, const PupilGrid& grid, co
     return beam;
 }
 
-GhostBeam GhostBeam::fromTriangles(std::vector<BeamTriangle> triangles, const FilmFrame& frame, long tracedRays) {
+GhostBeam GhostBeam::fromTriangles(std::vector<BeamTriangle> triangles, const FilmFrame& frame, long tracedRays,
+                                   std::vector<std::uint32_t> seedIndices) {
+    if (!seedIndices.empty() && seedIndices.size() != triangles.size())
+        throw std::invalid_argument("GhostBeam::fromTriangles: one seed index per triangle");
     GhostBeam beam;
     beam.frame_ = frame;
     beam.tracedRays_ = tracedRays;
     beam.triangles_ = std::move(triangles);
+    beam.seedIndices_ = std::move(seedIndices);
     beam.bucketByBand();
     return beam;
+}
+
+std::vector<std::uint32_t> GhostBeam::trianglesReaching(int firstBand, int lastBand) const {
+    const int bands = static_cast<int>(bandStart_.size()) - 1;
+    firstBand = std::max(firstBand, 0);
+    lastBand = std::min(lastBand, bands - 1);
+    if (firstBand > lastBand) return {};
+    std::vector<std::uint32_t> reaching(bandTriangles_.begin() + bandStart_[firstBand],
+                                        bandTriangles_.begin() + bandStart_[lastBand + 1]);
+    std::sort(reaching.begin(), reaching.end());
+    reaching.erase(std::unique(reaching.begin(), reaching.end()), reaching.end());
+    return reaching;
 }
 
 void GhostBeam::ring(double edgeScalePx) {
@@ -244,8 +261,14 @@ void GhostBeam::bucketByBand() {
     for (const BeamTriangle& t : triangles_) ++counts[bandRange(t).first + 1];
     for (int b = 0; b < bands; ++b) counts[b + 1] += counts[b];
     std::vector<BeamTriangle> sorted(triangles_.size());
-    for (const BeamTriangle& t : triangles_) sorted[counts[bandRange(t).first]++] = t;
+    std::vector<std::uint32_t> sortedSeeds(seedIndices_.size());
+    for (size_t n = 0; n < triangles_.size(); ++n) {
+        const int at = counts[bandRange(triangles_[n]).first]++;
+        sorted[at] = triangles_[n];
+        if (!seedIndices_.empty()) sortedSeeds[at] = seedIndices_[n];
+    }
     triangles_.swap(sorted);
+    seedIndices_.swap(sortedSeeds);
     bandStart_.assign(bands + 1, 0);
     for (const BeamTriangle& t : triangles_) {
         const auto [first, last] = bandRange(t);
@@ -398,7 +421,8 @@ void GhostBeam::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3
                           double* rows) const {
     const int width = frame_.widthPx, height = frame_.heightPx;
     const int bands = static_cast<int>(bandStart_.size()) - 1;
-    if (triangles_.empty() || band < 0 || band >= bands) return;
+    // (A beam cut to a band owner's part may hold rim segments reaching a band and no triangle.)
+    if (band < 0 || band >= bands) return;
     const int rowBegin = band * Film::kBandRows, rowEnd = std::min(height, rowBegin + Film::kBandRows);
     auto add = [&](int column, int row, double value) {
         double* p = rows + (static_cast<size_t>(row - rowBegin) * width + column) * 3;
@@ -426,7 +450,7 @@ void GhostBeam::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3
             const double longest = std::max({glm::length(t.pixel[1] - t.pixel[0]), glm::length(t.pixel[2] - t.pixel[1]),
                                               glm::length(t.pixel[0] - t.pixel[2])});
             const int points = std::clamp(static_cast<int>(std::ceil(2.0 * longest)), kSmallPointsMin, kSmallPointsMax);
-            Rng rng(seed, static_cast<std::uint64_t>(n));
+            Rng rng(seed, static_cast<std::uint64_t>(seedIndex(static_cast<size_t>(n))));
             const double shift1 = rng.uniform(), shift2 = rng.uniform();
             constexpr double kGoldenFraction = 0.6180339887498949;
             for (int point = 0; point < points; ++point) {

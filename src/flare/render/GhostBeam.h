@@ -95,10 +95,20 @@ public:
     // A beam of given triangles (pupil and pixel positions, throughput and irradiance per vertex,
     // pupil and image areas, `small` set by the caller), for tests and tools, and for a beam traced
     // by another process (PassWire.h: its triangles and the rays its mesh traced).
-    static GhostBeam fromTriangles(std::vector<BeamTriangle> triangles, const FilmFrame& frame, long tracedRays = 0);
+    // `seedIndices`, when given (one per triangle), are the triangles' indices in the beam they were
+    // cut from (a band owner's part of another process's beam): a small triangle's points are
+    // drawn from (seed, its index), so that the part rasterises its bands as the whole beam does.
+    static GhostBeam fromTriangles(std::vector<BeamTriangle> triangles, const FilmFrame& frame, long tracedRays = 0,
+                                   std::vector<std::uint32_t> seedIndices = {});
 
     bool empty() const { return triangles_.empty(); }
     const std::vector<BeamTriangle>& triangles() const { return triangles_; }
+    // Triangle n's index in the beam it was cut from (fromTriangles), else n.
+    std::uint32_t seedIndex(size_t n) const { return seedIndices_.empty() ? static_cast<std::uint32_t>(n) : seedIndices_[n]; }
+    // The triangles rasterise reads over the bands [firstBand, lastBand], by index, ascending: a
+    // beam cut to them (fromTriangles with their seed indices, the rim cut likewise) rasterises
+    // those bands bit for bit as the whole beam.
+    std::vector<std::uint32_t> trianglesReaching(int firstBand, int lastBand) const;
     long tracedRays() const { return tracedRays_; }
 
     // The piecewise-linear map at a pupil point: false outside the beam's region (or where the
@@ -145,6 +155,7 @@ private:
     // Triangles sorted by the film band of their first row (jitter included); band b's, in that
     // order, are bandTriangles_[bandStart_[b] .. bandStart_[b + 1]).
     std::vector<int> bandStart_, bandTriangles_;
+    std::vector<std::uint32_t> seedIndices_;  // (fromTriangles) per triangle, or empty
 };
 
 // A draw from the tent (the film's 1-px kernel) in each axis, from two uniforms in [0, 1).

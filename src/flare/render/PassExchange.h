@@ -4,12 +4,14 @@
 //
 // A pass's work is a fixed list of jobs, the same for any number of processes: its beams, then its
 // photon batches, each with random numbers of its own (Render.h). The ranks trace the jobs
-// (jobRank: rank 0 a share it adjusts, since it alone merges, the others the rest in turn) and
-// send what they produced (PassWire.h) to rank 0, which puts every job's result in its place and
-// merges the pass into the film exactly as one process does: same jobs, same order, same sums.
-// The other ranks trace the next pass while rank 0 merges (they need nothing from the film). So
-// the image, the tallies and the report are bitwise those of one process, for any number of
-// processes and threads, and a checkpoint written by R processes resumes with any other number.
+// (jobRank: rank 0 a share it adjusts, since it alone ends the pass, the others the rest in turn)
+// and exchange what they produced (PassWire.h, allToAll): each rank owns a group of the film's
+// bands and rasterises every beam over them, and rank 0, which holds the film, splats every hit,
+// adds the owners' band images and ends the pass exactly as one process does: same jobs, same
+// order in every band, same sums. The other ranks trace the next pass while rank 0 ends this one
+// (they need nothing from the film). So the image, the tallies and the report are bitwise those
+// of one process, for any number of processes and threads, and a checkpoint written by R
+// processes resumes with any other number.
 #pragma once
 
 #include <vector>
@@ -26,8 +28,14 @@ public:
     // `all` keeps its buffers from call to call: a pass's messages are tens of MB, and fresh
     // memory every pass costs page faults.
     virtual void gatherAtRoot(const std::vector<char>& mine, std::vector<std::vector<char>>& all) = 0;
+    // Collective: `out[q]` of every rank at rank q, in its `in` indexed by the sending rank (a
+    // rank's own entry is left empty: what it keeps stays where it is). `in` keeps its buffers
+    // from call to call, as gatherAtRoot's `all`.
+    virtual void allToAll(const std::vector<std::vector<char>>& out, std::vector<std::vector<char>>& in) = 0;
     // Collective: rank 0's `value` at every rank.
     virtual int broadcastFromRoot(int value) = 0;
+    // Collective: rank 0's `values` at every rank (every rank passes as many).
+    virtual void broadcastFromRoot(std::vector<int>& values) = 0;
 };
 
 // Rank 0's share of a pass's jobs is rootShare / kShareSteps.

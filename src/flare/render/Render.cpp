@@ -263,14 +263,11 @@ void Renderer::runPass() {
     statistics_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-void Renderer::merge(const std::vector<renderer::BatchResult>& batches, const std::vector<renderer::BeamJob>& beams) {
-    const int bandCount = film_.bandCount();
-    const int width = options_.film.widthPx;
+Renderer::HitsByBand Renderer::hitsByBand(const std::vector<renderer::BatchResult>& batches,
+                                          const std::vector<renderer::BeamJob>& beams) const {
     // Every hit, by the bands its kernel touches (a kernel near a band's edge reaches two).
-    struct Ref {
-        const renderer::SensorHit* hit;
-    };
-    std::vector<std::vector<Ref>> byBand(bandCount);
+    const int bandCount = film_.bandCount();
+    HitsByBand byBand(bandCount);
     auto bucket = [&](const renderer::SensorHit& hit) {
         const glm::dvec2 sensorMm(hit.xMm, hit.yMm);
         const double row = film_.toPixel(sensorMm).y;
@@ -279,48 +276,66 @@ void Renderer::merge(const std::vector<renderer::BatchResult>& batches, const st
                                       hit.ghostLayer >= 0 ? film_.bandReachPx(hit.ghostLayer, sensorMm, power) : 0.0);
         const int first = std::max(0, static_cast<int>(std::floor((row - reach) / Film::kBandRows)));
         const int last = std::min(bandCount - 1, static_cast<int>(std::floor((row + reach) / Film::kBandRows)));
-        for (int b = first; b <= last; ++b) byBand[b].push_back({&hit});
+        for (int b = first; b <= last; ++b) byBand[b].push_back(&hit);
     };
     for (const renderer::BatchResult& batch : batches)
         for (const renderer::SensorHit& hit : batch.hits) bucket(hit);
     for (const renderer::BeamJob& job : beams)
         for (const renderer::SensorHit& hit : job.hits) bucket(hit);
+    return byBand;
+}
 
+void Renderer::splatHitsInBand(int band, const std::vector<const renderer::SensorHit*>& hits) {
+    for (const renderer::SensorHit* hit : hits) {
+        const glm::dvec2 p(hit->xMm, hit->yMm);
+        const glm::dvec3 xyz(hit->xyz[0], hit->xyz[1], hit->xyz[2]);
+        film_.splatInBand(band, hit->layer, p, xyz);
+        if (hit->ghostLayer >= 0) film_.splatInBand(band, hit->ghostLayer, p, xyz, false);
+    }
+}
+
+void Renderer::rasteriseBeamsInBand(int band, const std::vector<renderer::BeamJob>& beams,
+                                    std::array<std::vector<double>, 3>& scratch, const BandAdder& add) const {
+    // Beams, path by path (a path's beams are consecutive jobs): into the ghost or higher rows,
+    // and into the path's own layer when asked.
+    if (beams.empty()) return;
+    const size_t bandValues = static_cast<size_t>(Film::kBandRows) * options_.film.widthPx * 3;
+    // (scratch[0] and [1]: the ghost and higher rows; scratch[2]: a path's own.)
+    std::vector<double>& own = scratch[2];
+    scratch[0].assign(bandValues, 0.0);
+    scratch[1].assign(bandValues, 0.0);
+    bool touched[2] = {false, false};
     const bool perGhost = options_.perGhostLayers;
-    tbb::parallel_for(tbb::blocked_range<int>(0, bandCount, 1), [&](const tbb::blocked_range<int>& range) {
-        const size_t bandValues = static_cast<size_t>(Film::kBandRows) * width * 3;
-        std::vector<double> rows[2], own;
+    for (size_t j = 0; j < beams.size();) {
+        const renderer::BeamJob& first = beams[j];
+        const renderer::LightState& light = lightStates_[first.light];
+        const int target = light.layer[first.slot] == kLayerHigher ? 1 : 0;
+        const int ghostLayer = perGhost ? light.ghostLayer[first.slot] : -1;
+        if (ghostLayer >= 0) own.assign(bandValues, 0.0);
+        std::vector<double>& into = ghostLayer >= 0 ? own : scratch[target];
+        size_t k = j;
+        for (; k < beams.size() && beams[k].light == first.light && beams[k].slot == first.slot; ++k)
+            beams[k].beam.rasterise(band, beams[k].jitterPx, beams[k].scale, beams[k].seed, into.data());
+        if (ghostLayer >= 0) {
+            add(ghostLayer, own.data(), false);
+            for (size_t i = 0; i < bandValues; ++i) scratch[target][i] += own[i];
+        }
+        touched[target] = touched[target] || k > j;
+        j = k;
+    }
+    if (touched[0]) add(kLayerGhost, scratch[0].data(), true);
+    if (touched[1]) add(kLayerHigher, scratch[1].data(), true);
+}
+
+void Renderer::merge(const std::vector<renderer::BatchResult>& batches, const std::vector<renderer::BeamJob>& beams) {
+    const HitsByBand byBand = hitsByBand(batches, beams);
+    tbb::parallel_for(tbb::blocked_range<int>(0, film_.bandCount(), 1), [&](const tbb::blocked_range<int>& range) {
+        std::array<std::vector<double>, 3> scratch;
         for (int band = range.begin(); band != range.end(); ++band) {
-            for (const Ref& ref : byBand[band]) {
-                const renderer::SensorHit& hit = *ref.hit;
-                const glm::dvec2 p(hit.xMm, hit.yMm);
-                const glm::dvec3 xyz(hit.xyz[0], hit.xyz[1], hit.xyz[2]);
-                film_.splatInBand(band, hit.layer, p, xyz);
-                if (hit.ghostLayer >= 0) film_.splatInBand(band, hit.ghostLayer, p, xyz, false);
-            }
-            // Beams, path by path (a path's beams are consecutive jobs): into the ghost or higher
-            // rows, and into the path's own layer when asked.
-            for (auto& r : rows) r.assign(bandValues, 0.0);
-            bool touched[2] = {false, false};
-            for (size_t j = 0; j < beams.size();) {
-                const renderer::BeamJob& first = beams[j];
-                const renderer::LightState& light = lightStates_[first.light];
-                const int target = light.layer[first.slot] == kLayerHigher ? 1 : 0;
-                const int ghostLayer = perGhost ? light.ghostLayer[first.slot] : -1;
-                if (ghostLayer >= 0) own.assign(bandValues, 0.0);
-                std::vector<double>& into = ghostLayer >= 0 ? own : rows[target];
-                size_t k = j;
-                for (; k < beams.size() && beams[k].light == first.light && beams[k].slot == first.slot; ++k)
-                    beams[k].beam.rasterise(band, beams[k].jitterPx, beams[k].scale, beams[k].seed, into.data());
-                if (ghostLayer >= 0) {
-                    film_.addBand(band, ghostLayer, own.data(), false);
-                    for (size_t i = 0; i < bandValues; ++i) rows[target][i] += own[i];
-                }
-                touched[target] = touched[target] || k > j;
-                j = k;
-            }
-            if (touched[0]) film_.addBand(band, kLayerGhost, rows[0].data());
-            if (touched[1]) film_.addBand(band, kLayerHigher, rows[1].data());
+            splatHitsInBand(band, byBand[band]);
+            rasteriseBeamsInBand(band, beams, scratch, [&](int layer, const double* rows, bool inTotal) {
+                film_.addBand(band, layer, rows, inTotal);
+            });
         }
     });
 }

@@ -48,6 +48,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -240,16 +241,20 @@ struct RenderStatistics {
 // What sharing the passes among ranks cost so far (Renderer::exchangeCosts, rank 0's view; all
 // zero for a render alone), summed over the passes, in wall and CPU seconds (…Cpu: the process's
 // CPU time, all its threads; on a shared machine the wall time also counts other processes'):
-// rank 0's share of the jobs (summed) and its time tracing them; the other ranks' time tracing
-// and encoding theirs (their mean per pass, as they report it); rank 0's time waiting for and
-// receiving their results, and the bytes; its time decoding them and merging the whole pass.
-// docs/scaling.md models renders on many nodes from them.
+// rank 0's share of the jobs (summed) and its time tracing and encoding them; the other ranks'
+// time tracing and encoding theirs (their mean per pass, as they report it); rank 0's time
+// waiting for and receiving the others' results and their bands, and the bytes; rank 0's share
+// of the bands (summed) and its time decoding the others' results, rasterising its bands and
+// splatting every band's hits (besidesBandsS: the decoding and the hits, wall); the others' time rasterising theirs (their mean, as they report
+// it); rank 0's time adding the others' bands and ending the pass. docs/scaling.md models renders
+// on many nodes from them.
 struct ExchangeCosts {
     int passes = 0;
     double rootShare = 0.0;
     double traceS = 0.0, traceCpuS = 0.0;
     double othersTraceS = 0.0, othersTraceCpuS = 0.0;
     double gatherS = 0.0, bytesReceived = 0.0;
+    double rootBands = 0.0, bandsS = 0.0, bandsCpuS = 0.0, besidesBandsS = 0.0, othersBandsS = 0.0, othersBandsCpuS = 0.0;
     double mergeS = 0.0, mergeCpuS = 0.0;
 };
 // The renderer's internals: its plan (RenderPlan.h) and the strategies' work (PhotonBatches.h,
@@ -261,6 +266,7 @@ struct LightState;
 struct PhotonComponent;
 struct BatchResult;
 struct BeamJob;
+struct SensorHit;
 struct DistributedPasses;
 }  // namespace renderer
 
@@ -276,10 +282,11 @@ public:
 
     // Traces one pass (options.photonsPerPass() photons and the beams) in parallel and merges it.
     // With an exchange of several ranks (setExchange), every rank must call it: each traces its
-    // share of the pass and rank 0 merges the whole pass; only rank 0's film, tallies and
-    // statistics are the render's (the others' count the passes, nothing else). The other ranks
-    // return having traced their share of the next pass too (sent by their next call), unless the
-    // pass limit is reached: rank 0's merge of this pass overlaps their tracing of the next.
+    // share of the pass and rasterises the beams over its share of the film's bands, and rank 0
+    // merges the rest (every hit, the bands' images, the pass's end); only rank 0's film, tallies
+    // and statistics are the render's (the others' count the passes, nothing else). The other
+    // ranks return having traced their share of the next pass too (sent by their next call),
+    // unless the pass limit is reached: rank 0's end of this pass overlaps their tracing of the next.
     void runPass();
     // Shares the passes among the exchange's ranks (PassExchange.h); null, or one rank: this
     // process traces every pass alone. The exchange must outlive the passes.
@@ -338,6 +345,17 @@ private:
     void setUpFilm();
     std::vector<renderer::BeamJob> drawBeamJobs();
     void merge(const std::vector<renderer::BatchResult>& batches, const std::vector<renderer::BeamJob>& beams);
+    // The merge's parts, band by band (a band's tiles are its own: bands run in parallel): the
+    // pass's hits by the bands their kernels reach, splatted into one band; the beams' image over
+    // one band, handed to `add` (Film::addBand's arguments) in the order one process adds them, in
+    // buffers of `scratch` (a band owner rasterises its bands and sends them, RenderDistributed).
+    using HitsByBand = std::vector<std::vector<const renderer::SensorHit*>>;
+    using BandAdder = std::function<void(int layer, const double* rows, bool inTotal)>;
+    HitsByBand hitsByBand(const std::vector<renderer::BatchResult>& batches,
+                          const std::vector<renderer::BeamJob>& beams) const;
+    void splatHitsInBand(int band, const std::vector<const renderer::SensorHit*>& hits);
+    void rasteriseBeamsInBand(int band, const std::vector<renderer::BeamJob>& beams,
+                              std::array<std::vector<double>, 3>& scratch, const BandAdder& add) const;
     void runDistributedPass();
     void addPassTallies(const std::vector<renderer::BeamJob>& beams, int replicate);
     std::uint64_t fingerprint() const;

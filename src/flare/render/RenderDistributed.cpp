@@ -1,26 +1,35 @@
-// A pass of the final render shared among processes (PassExchange.h): each rank traces its jobs,
-// rank 0 gathers every job's result in its place and merges the pass as one process would.
-//
-// The merge (rasterising every beam, splatting the hits, the film's per-pass bookkeeping) is rank
-// 0's alone and, with beams, costs about as much as tracing the pass (docs/scaling.md). Two things
-// keep every rank busy all the same:
-//   - the other ranks trace ahead: having sent pass p they trace their share of pass p + 1 at
-//     once, while rank 0 merges pass p (nothing in a pass's jobs depends on the film: their random
-//     numbers follow from the seed and the pass), and send it when pass p + 1 starts; if the render
-//     stops after pass p, that work is dropped (never past the pass limit, setPassLimit);
-//   - rank 0 traces a smaller share (jobRank), chosen after every pass from what the last passes
-//     cost so that its tracing and merging take as long as another rank's tracing.
-// Which rank traces a job changes nothing in the image: a job's result is the same wherever it is
-// traced, and rank 0 merges every result in the job order.
+// A pass of the final render shared among processes (PassExchange.h). The jobs (beams, photon
+// batches) are shared as before; the film's rows are shared too, in contiguous groups of its bands
+// (Film::kBandRows), one group per rank:
+//   1. each rank traces its share of the jobs (rank 0 a smaller one: it alone does the film's
+//      bookkeeping); the ranks exchange what they traced: each beam's part that a band owner
+//      rasterises (its triangles and rim segments reaching the owner's bands) to that owner, and
+//      everything rank 0 reads (the batches' hits, tallies and statistics, the beams' hits, power
+//      and rays) to rank 0;
+//   2. each rank rasterises every beam over its own bands (the merge's largest part, nearly all
+//      of it with beams), rank 0 meanwhile its bands and every band's hits; the others send rank 0
+//      their bands' images as the merge would add them to the film (Renderer::rasteriseBeamsInBand);
+//   3. rank 0 adds them to the film in their bands, after the hits, as one process adds them,
+//      and ends the pass: the film, its error sums and the tallies stay rank 0's alone.
+// So every band receives the same additions in the same order as one process makes them: the
+// image is bitwise one process's, whatever the split of the jobs and of the bands, which may
+// therefore follow the measured costs: after every pass rank 0 chooses the next pass's share of
+// the jobs and split of the bands, and broadcasts them. The other ranks trace their share of the
+// next pass at once, while rank 0 adds the bands and ends the pass (docs/distributed.md).
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <ctime>
+#include <numeric>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include "flare/render/BeamStrategy.h"
 #include "flare/render/PassExchange.h"
@@ -33,21 +42,25 @@ namespace flare {
 namespace renderer {
 
 struct DistributedPasses {
-    std::vector<char> outbox;               // this rank's results of a pass (ranks ≠ 0)
-    std::vector<std::vector<char>> inbox;   // the others' results (rank 0)
+    std::vector<std::vector<char>> outboxes;  // per rank: what this rank sends it in a pass's exchange
+    std::vector<std::vector<char>> inbox;     // per rank: what it sent this one
+    std::vector<char> bandsOut;               // a band owner's images (ranks ≠ 0)
+    std::vector<std::vector<char>> bandsIn;   // the owners' images (rank 0)
     // Ranks ≠ 0: the pass traced ahead (its beams; its batches are in the renderer's batches_), and
     // how long tracing it took.
     bool ahead = false;
     std::vector<BeamJob> beamJobs;
     double traceS = 0.0, traceCpuS = 0.0;
-    // Rank 0's share (of kShareSteps) of the pass the others trace next: every rank knows it.
+    // What every rank knows of the pass to trace next: rank 0's share of the jobs (of kShareSteps)
+    // and the bands' owners (rank r owns bands [bandStart[r], bandStart[r + 1])).
     int rootShare = 0;
-    // Rank 0: whether the others have traced the current pass before it started (every pass but a
-    // session's first), and the last pass's costs: its own trace (and how many jobs), the others'
-    // (their mean), and its decoding and merging.
-    bool othersAhead = false;
+    std::vector<int> bandStart;
+    // Rank 0: the last pass's costs: its own trace (and how many jobs), the others' (their mean),
+    // and its adding the others' bands and ending the pass (mergeS); each band's rasterising (per
+    // thread of its owner) and each rank's time besides its bands in the band phase.
     double rootTraceS = 0.0, othersTraceS = 0.0, mergeS = -1.0;
     long rootJobs = 0, othersJobs = 0;
+    std::vector<double> bandSeconds, besidesBandsS;
 };
 
 namespace {
@@ -58,10 +71,11 @@ double secondsSince(std::chrono::steady_clock::time_point t) {
 // The process's CPU time (all its threads), s.
 double cpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
 
-// Rank 0's share (of kShareSteps) that balances the ranks: rank 0 tracing s·W and merging in M
-// takes as long as another rank tracing (1 − s)·W / (R − 1), W the whole pass's tracing on one
-// rank, estimated from the jobs' measured cost; at most an equal share, at least none.
-// Before rank 0 has merged a pass (its cost unknown): half an equal share.
+// Rank 0's share (of kShareSteps) that balances the ranks between one pass's bands and the next
+// pass's exchange: rank 0 adding the others' bands and ending the pass in M and tracing s·W takes
+// as long as another rank tracing (1 − s)·W / (R − 1), W the whole pass's tracing on one rank,
+// estimated from the jobs' measured cost; at most an equal share, at least none. Before rank 0
+// has merged a pass (its cost unknown): half an equal share.
 int balancedRootShare(const DistributedPasses& d, long jobs, int ranks) {
     const double tracedS = d.rootTraceS + d.othersTraceS * (ranks - 1);
     const long traced = d.rootJobs + d.othersJobs * (ranks - 1);
@@ -69,6 +83,38 @@ int balancedRootShare(const DistributedPasses& d, long jobs, int ranks) {
     const double wholeS = tracedS / static_cast<double>(traced) * static_cast<double>(jobs);
     const double share = (wholeS - (ranks - 1) * d.mergeS) / (ranks * wholeS);
     return static_cast<int>(std::lround(std::clamp(share, 0.0, 1.0 / ranks) * kShareSteps));
+}
+
+// The bands split by rows: rank r owns bands [⌊r·B/R⌋, ⌊(r + 1)·B/R⌋).
+std::vector<int> bandsByRows(int bands, int ranks) {
+    std::vector<int> start(ranks + 1);
+    for (int r = 0; r <= ranks; ++r) start[r] = static_cast<int>(static_cast<long>(r) * bands / ranks);
+    return start;
+}
+
+// The split of the bands that balances the band phase, from the last pass's costs: rank r's
+// phase takes X_r (its time besides rasterising: decoding, encoding, and at rank 0 every band's
+// hits) plus its bands' costs; each rank gets bands worth t − X_r, t the mean phase. Contiguous
+// groups in row order, each boundary where the running cost crosses its target.
+std::vector<int> balancedBands(const std::vector<double>& bandSeconds, const std::vector<double>& besidesS) {
+    const int bands = static_cast<int>(bandSeconds.size()), ranks = static_cast<int>(besidesS.size());
+    const double total = std::accumulate(bandSeconds.begin(), bandSeconds.end(), 0.0);
+    if (!(total > 0.0)) return bandsByRows(bands, ranks);
+    const double mean = (total + std::accumulate(besidesS.begin(), besidesS.end(), 0.0)) / ranks;
+    std::vector<double> budget(ranks);
+    for (int r = 0; r < ranks; ++r) budget[r] = std::max(0.0, mean - besidesS[r]);
+    const double budgets = std::accumulate(budget.begin(), budget.end(), 0.0);
+    std::vector<int> start(ranks + 1, bands);
+    start[0] = 0;
+    double target = 0.0, running = 0.0;
+    int b = 0;
+    for (int r = 0; r + 1 < ranks; ++r) {
+        target += budget[r] / budgets * total;
+        // Up to the band whose end is nearest the target.
+        while (b < bands && running + 0.5 * bandSeconds[b] < target) running += bandSeconds[b++];
+        start[r + 1] = b;
+    }
+    return start;
 }
 
 }  // namespace
@@ -80,10 +126,13 @@ void Renderer::setExchange(PassExchange* exchange) {
     distributed_.reset();
     if (exchange_ == nullptr || exchange_->size() <= 1) return;
     distributed_ = std::make_shared<renderer::DistributedPasses>();
-    distributed_->inbox.resize(static_cast<size_t>(exchange_->size()));
+    const int ranks = exchange_->size();
+    distributed_->outboxes.resize(static_cast<size_t>(ranks));
+    distributed_->inbox.resize(static_cast<size_t>(ranks));
     // A session's first pass: an equal share (every rank traces it at once, and rank 0 has no
-    // pass to merge meanwhile).
-    distributed_->rootShare = kShareSteps / exchange_->size();
+    // pass to merge meanwhile), and the bands split by rows.
+    distributed_->rootShare = kShareSteps / ranks;
+    distributed_->bandStart = renderer::bandsByRows(film_.bandCount(), ranks);
 }
 
 void Renderer::runDistributedPass() {
@@ -92,6 +141,8 @@ void Renderer::runDistributedPass() {
     renderer::DistributedPasses& d = *distributed_;
     const int rank = exchange.rank(), ranks = exchange.size();
     const int batches = static_cast<int>(batches_.size());  // 0 without photons
+    const int width = options_.film.widthPx, height = options_.film.heightPx;
+    const FilmFrame frame = renderer::filmFrame(options_.film);
     const renderer::PhotonBatchInputs batchInputs{*lens_, options_, tracer_, indexTable_, lightStates_, components_,
                                                   componentCdf_, scatterSourceLayer_, tallies_.size()};
     // This rank's jobs of the current pass at rank 0's share `rootShare`, traced in parallel on its
@@ -113,6 +164,52 @@ void Renderer::runDistributedPass() {
         });
         return static_cast<long>(mine.size());
     };
+    // What this rank traced of the pass, into the outboxes: each beam's part for every other
+    // band owner, and to rank 0 the results it reads (rank 0's own stay where they are).
+    auto encodeShare = [&](const std::vector<renderer::BeamJob>& beamJobs) {
+        const int beams = static_cast<int>(beamJobs.size());
+        for (auto& box : d.outboxes) box.clear();
+        for (int j = 0; j < beams + batches; ++j) {
+            if (jobRank(j, d.rootShare, ranks) != rank) continue;
+            if (j >= beams) {
+                if (rank != 0) renderer::writeBatch(j - beams, batches_[j - beams], d.outboxes[0]);
+                continue;
+            }
+            for (int q = 0; q < ranks; ++q)
+                if (q != rank)
+                    renderer::writeBeam(j, beamJobs[j], d.bandStart[q], d.bandStart[q + 1] - 1, q == 0, d.outboxes[q]);
+        }
+    };
+    // This rank's bands of the pass: for each, `perBand(band)` and then the beams' images, handed
+    // to `add`; returns each band's time (per thread of this rank: the arena's threads share them).
+    auto ownBands = [&](const std::vector<renderer::BeamJob>& beamJobs, const auto& perBand, const auto& add) {
+        const int first = d.bandStart[rank], count = d.bandStart[rank + 1] - first;
+        std::vector<double> seconds(static_cast<size_t>(count), 0.0);
+        tbb::parallel_for(tbb::blocked_range<int>(0, count, 1), [&](const tbb::blocked_range<int>& range) {
+            std::array<std::vector<double>, 3> scratch;
+            for (int i = range.begin(); i != range.end(); ++i) {
+                const int band = first + i;
+                perBand(band);
+                const auto bandStart = std::chrono::steady_clock::now();
+                rasteriseBeamsInBand(band, beamJobs, scratch, [&](int layer, const double* rows, bool inTotal) {
+                    add(band, i, layer, rows, inTotal);
+                });
+                seconds[i] = renderer::secondsSince(bandStart);
+            }
+        });
+        const double threads = std::max(1, tbb::this_task_arena::max_concurrency());
+        for (double& s : seconds) s /= threads;
+        return seconds;
+    };
+    // The next pass's share and bands, from rank 0 to every rank.
+    auto broadcastSplit = [&] {
+        std::vector<int> values(d.bandStart.begin(), d.bandStart.end());
+        values[0] = d.rootShare;  // (bandStart[0] is 0)
+        exchange.broadcastFromRoot(values);
+        d.rootShare = values[0];
+        d.bandStart.assign(values.begin(), values.end());
+        d.bandStart[0] = 0;
+    };
 
     if (rank != 0) {
         // The pass's beam jobs drawn, and this rank's share traced and timed.
@@ -127,23 +224,34 @@ void Renderer::runDistributedPass() {
         // Every rank draws the pass's beam jobs (their counts and sequence points follow from the
         // seed and the passes before), so that job j is the same job on every rank.
         if (!d.ahead) drawAndTraceShare();
-        const int beams = static_cast<int>(d.beamJobs.size());
         const auto encodeStart = std::chrono::steady_clock::now();
         const double encodeCpuStart = renderer::cpuSeconds();
-        d.outbox.clear();
-        for (int j = 0; j < beams + batches; ++j) {
-            if (jobRank(j, d.rootShare, ranks) != rank) continue;
-            if (j < beams) renderer::writeBeam(j, d.beamJobs[j], d.outbox);
-            else renderer::writeBatch(j - beams, batches_[j - beams], d.outbox);
-        }
+        encodeShare(d.beamJobs);
         renderer::writeTraceTime(d.traceS + renderer::secondsSince(encodeStart),
-                                 d.traceCpuS + renderer::cpuSeconds() - encodeCpuStart, d.outbox);
-        exchange.gatherAtRoot(d.outbox, d.inbox);
-        d.rootShare = exchange.broadcastFromRoot(0);
+                                 d.traceCpuS + renderer::cpuSeconds() - encodeCpuStart, d.outboxes[0]);
+        exchange.allToAll(d.outboxes, d.inbox);
+        // The others' beams, cut to this rank's bands, beside its own; its bands' images to rank 0.
+        const auto phaseStart = std::chrono::steady_clock::now();
+        const double phaseCpuStart = renderer::cpuSeconds();
+        for (int q = 0; q < ranks; ++q)
+            if (q != rank) renderer::readPassResults(d.inbox[q], frame, batches_, d.beamJobs);
+        const int first = d.bandStart[rank], count = d.bandStart[rank + 1] - first;
+        std::vector<std::vector<char>> images(static_cast<size_t>(count));
+        const std::vector<double> seconds = ownBands(
+            d.beamJobs, [](int) {},
+            [&](int band, int i, int layer, const double* rows, bool inTotal) {
+                renderer::writeBandImage(band, layer, inTotal, rows, width, height, images[i]);
+            });
+        d.bandsOut.clear();
+        for (const std::vector<char>& image : images) d.bandsOut.insert(d.bandsOut.end(), image.begin(), image.end());
+        renderer::writeBandCosts(first, seconds, renderer::secondsSince(phaseStart),
+                                 renderer::cpuSeconds() - phaseCpuStart, d.bandsOut);
+        exchange.gatherAtRoot(d.bandsOut, d.bandsIn);
+        broadcastSplit();
         ++exchangeCosts_.passes;
         batchesDone_ += batches;
         ++statistics_.passes;
-        // The next pass's share, now, while rank 0 merges this one.
+        // The next pass's share, now, while rank 0 adds the bands and ends the pass.
         d.ahead = passLimit_ <= 0 || statistics_.passes < passLimit_;
         if (d.ahead) drawAndTraceShare();
         statistics_.seconds += renderer::secondsSince(start);
@@ -155,32 +263,21 @@ void Renderer::runDistributedPass() {
     const int beams = static_cast<int>(beamJobs.size());
     const long jobs = beams + batches;
     const int share = d.rootShare;
-    long traced = 0;
-    auto traceMine = [&] {
-        const auto traceStart = std::chrono::steady_clock::now();
-        const double cpuStart = renderer::cpuSeconds();
-        traced = traceShare(beamJobs, share);
-        d.rootTraceS = renderer::secondsSince(traceStart);
-        d.rootJobs = traced;
-        exchangeCosts_.traceS += d.rootTraceS;
-        exchangeCosts_.traceCpuS += renderer::cpuSeconds() - cpuStart;
-    };
-    // A session's first pass: the others trace it now, and so does rank 0. After it, they traced
-    // it while rank 0 merged the last one: their results are waiting.
-    if (!d.othersAhead) traceMine();
-    const auto gatherStart = std::chrono::steady_clock::now();
-    d.outbox.clear();
-    exchange.gatherAtRoot(d.outbox, d.inbox);
-    exchangeCosts_.gatherS += renderer::secondsSince(gatherStart);
-    // The share of the next pass, which the others trace as soon as they have it.
-    d.rootShare = renderer::balancedRootShare(d, jobs, ranks);
-    exchange.broadcastFromRoot(d.rootShare);
-    if (d.othersAhead) traceMine();
-    d.othersAhead = passLimit_ <= 0 || statistics_.passes + 1 < passLimit_;
+    const auto traceStart = std::chrono::steady_clock::now();
+    const double traceCpuStart = renderer::cpuSeconds();
+    const long traced = traceShare(beamJobs, share);
+    encodeShare(beamJobs);
+    d.rootTraceS = renderer::secondsSince(traceStart);
+    d.rootJobs = traced;
+    exchangeCosts_.traceS += d.rootTraceS;
+    exchangeCosts_.traceCpuS += renderer::cpuSeconds() - traceCpuStart;
 
-    const auto mergeStart = std::chrono::steady_clock::now();
-    const double mergeCpuStart = renderer::cpuSeconds();
-    const FilmFrame frame = renderer::filmFrame(options_.film);
+    // The others' results (their beams cut to rank 0's bands), while they receive rank 0's beams.
+    const auto exchangeStart = std::chrono::steady_clock::now();
+    exchange.allToAll(d.outboxes, d.inbox);
+    exchangeCosts_.gatherS += renderer::secondsSince(exchangeStart);
+    const auto bandsStart = std::chrono::steady_clock::now();
+    const double bandsCpuStart = renderer::cpuSeconds();
     long received = traced;
     double othersTraceS = 0.0, othersTraceCpuS = 0.0;
     for (int r = 1; r < ranks; ++r) {
@@ -198,7 +295,71 @@ void Renderer::runDistributedPass() {
     exchangeCosts_.othersTraceS += d.othersTraceS;
     exchangeCosts_.othersTraceCpuS += othersTraceCpuS / (ranks - 1);
     exchangeCosts_.rootShare += static_cast<double>(share) / kShareSteps;
-    merge(batches_, beamJobs);
+
+    // Every band's hits (the adaptive kernels' counts and the wide kernels' sums need them all,
+    // Film.h), rank 0's bands' beams too: each band's hits before its beams, as one process.
+    const int bandCount = film_.bandCount();
+    const HitsByBand byBand = hitsByBand(batches_, beamJobs);
+    const int firstOwn = d.bandStart[0], endOwn = d.bandStart[1];
+    std::vector<double> ownSeconds = ownBands(
+        beamJobs, [&](int band) { splatHitsInBand(band, byBand[band]); },
+        [&](int band, int, int layer, const double* rows, bool inTotal) { film_.addBand(band, layer, rows, inTotal); });
+    tbb::parallel_for(tbb::blocked_range<int>(0, bandCount, 1), [&](const tbb::blocked_range<int>& range) {
+        for (int band = range.begin(); band != range.end(); ++band)
+            if (band < firstOwn || band >= endOwn) splatHitsInBand(band, byBand[band]);
+    });
+    const double rootBandsS = renderer::secondsSince(bandsStart);
+    exchangeCosts_.bandsS += rootBandsS;
+    exchangeCosts_.bandsCpuS += renderer::cpuSeconds() - bandsCpuStart;
+    exchangeCosts_.rootBands += static_cast<double>(endOwn - firstOwn) / bandCount;
+
+    const auto gatherStart = std::chrono::steady_clock::now();
+    exchange.gatherAtRoot({}, d.bandsIn);
+    exchangeCosts_.gatherS += renderer::secondsSince(gatherStart);
+    const auto mergeStart = std::chrono::steady_clock::now();
+    const double mergeCpuStart = renderer::cpuSeconds();
+    // The bands' images, each band's in the order its owner made them; each rank's costs.
+    std::vector<std::vector<std::pair<int, renderer::BandImage>>> imagesOfBand(static_cast<size_t>(bandCount));
+    d.bandSeconds.assign(static_cast<size_t>(bandCount), 0.0);
+    d.besidesBandsS.assign(static_cast<size_t>(ranks), 0.0);
+    std::copy(ownSeconds.begin(), ownSeconds.end(), d.bandSeconds.begin() + firstOwn);
+    d.besidesBandsS[0] = std::max(0.0, rootBandsS - std::accumulate(ownSeconds.begin(), ownSeconds.end(), 0.0));
+    exchangeCosts_.besidesBandsS += d.besidesBandsS[0];
+    double othersBandsS = 0.0, othersBandsCpuS = 0.0;
+    for (int r = 1; r < ranks; ++r) {
+        const renderer::BandMessage message = renderer::readBandMessage(d.bandsIn[r], width, height);
+        exchangeCosts_.bytesReceived += static_cast<double>(d.bandsIn[r].size());
+        for (const renderer::BandImage& image : message.images) {
+            if (image.band < d.bandStart[r] || image.band >= d.bandStart[r + 1] || image.layer >= film_.layerCount())
+                throw std::runtime_error("distributed render: rank " + std::to_string(r) + " sent an image of band " +
+                                         std::to_string(image.band) + ", layer " + std::to_string(image.layer) +
+                                         ", which is not its own");
+            imagesOfBand[image.band].emplace_back(r, image);
+        }
+        if (message.firstBand != d.bandStart[r] ||
+            message.bandSeconds.size() != static_cast<size_t>(d.bandStart[r + 1] - d.bandStart[r]))
+            throw std::runtime_error("distributed render: rank " + std::to_string(r) + " reported the costs of other bands");
+        std::copy(message.bandSeconds.begin(), message.bandSeconds.end(), d.bandSeconds.begin() + message.firstBand);
+        d.besidesBandsS[r] =
+            std::max(0.0, message.phaseS - std::accumulate(message.bandSeconds.begin(), message.bandSeconds.end(), 0.0));
+        othersBandsS += message.phaseS;
+        othersBandsCpuS += message.phaseCpuS;
+    }
+    exchangeCosts_.othersBandsS += othersBandsS / (ranks - 1);
+    exchangeCosts_.othersBandsCpuS += othersBandsCpuS / (ranks - 1);
+    // The next pass's share and bands, which the others use as soon as they have them.
+    d.rootShare = renderer::balancedRootShare(d, jobs, ranks);
+    d.bandStart = renderer::balancedBands(d.bandSeconds, d.besidesBandsS);
+    broadcastSplit();
+
+    tbb::parallel_for(tbb::blocked_range<int>(0, bandCount, 1), [&](const tbb::blocked_range<int>& range) {
+        std::vector<double> rows;
+        for (int band = range.begin(); band != range.end(); ++band)
+            for (const auto& [r, image] : imagesOfBand[band]) {
+                renderer::readBandImage(d.bandsIn[r], image, width, height, rows);
+                film_.addBand(band, image.layer, rows.data(), image.inTotal);
+            }
+    });
     addPassTallies(beamJobs, replicate);
     film_.endPass(options_.photonsPerPass());
     d.mergeS = renderer::secondsSince(mergeStart);

@@ -1,9 +1,12 @@
 // A beam's record between ranks (PassWire.h): read back, it rasterises bit for bit as the traced
 // beam in every band (its large and small triangles, its ringing rim), though its triangles take
-// less than half the bytes of the whole triangles; a cut record is an error, not a wrong beam.
+// less than half the bytes of the whole triangles; a cut record is an error, not a wrong beam. A
+// band owner's part of a beam rasterises its bands bit for bit as the whole, and a band's image
+// read back adds to the film exactly as the buffer it was written from.
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -106,6 +109,78 @@ TEST(PassWire, ABeamReadBackRasterisesBitwiseAsTracedFromLessThanHalfItsTriangle
         const std::vector<char> shorter(message.begin(), message.begin() + static_cast<long>(cut));
         EXPECT_THROW(renderer::readPassResults(shorter, frame, batches, beams), std::runtime_error) << cut;
     }
+}
+
+// Every group of bands a rank may own: the beam's part for it (a fraction of the record, with the
+// small triangles' seed indices and the rim's segments reaching it) rasterises each of those
+// bands bit for bit as the whole beam, and holds nothing for a group no light reaches.
+TEST(PassWire, ABandOwnersPartOfABeamRasterisesItsBandsBitwiseAsTheWhole) {
+    const FilmFrame frame{200, 230, 20.0, 23.0, 0.1};
+    const int bands = (frame.heightPx + Film::kBandRows - 1) / Film::kBandRows;  // 8
+    // The disk over rows 20–161 (bands 0–5 with its rim) and its small triangles beside it; ringing.
+    const renderer::BeamJob traced = diskJob(frame, glm::dvec2(90.3, 90.6), 70.0, 96);
+    ASSERT_FALSE(traced.beam.rim().empty());
+    std::vector<char> whole;
+    renderer::writeBeam(0, traced, whole);
+    for (int first = 0; first < bands; ++first)
+        for (int last = first; last < bands; ++last) {
+            SCOPED_TRACE("bands " + std::to_string(first) + " to " + std::to_string(last));
+            std::vector<char> message;
+            renderer::writeBeam(0, traced, first, last, false, message);
+            std::vector<renderer::BatchResult> batches;
+            std::vector<renderer::BeamJob> beams(1);
+            renderer::readPassResults(message, frame, batches, beams);
+            if (first > 5) {
+                EXPECT_TRUE(message.empty());
+                continue;
+            }
+            EXPECT_LT(message.size(), whole.size());
+            // (Every triangle of the fan reaches its centre's band, 2.)
+            if (first > 2 || last < 2) EXPECT_LT(beams[0].beam.triangles().size(), traced.beam.triangles().size());
+            for (int band = first; band <= last; ++band) {
+                const std::vector<double> a = bandImage(traced, frame, band), b = bandImage(beams[0], frame, band);
+                EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(double)), 0) << "band " << band;
+            }
+        }
+}
+
+TEST(PassWire, ABandImageReadBackAddsToTheFilmAsItsBuffer) {
+    const FilmFrame frame{200, 150, 20.0, 15.0, 0.1};
+    const renderer::BeamJob traced = diskJob(frame, glm::dvec2(60.3, 70.6), 25.0, 48);
+    FilmSettings settings;
+    settings.widthPx = frame.widthPx, settings.heightPx = frame.heightPx;
+    settings.widthMm = frame.widthMm, settings.heightMm = frame.heightMm;
+    Film direct(settings, 2), copied(settings, 2);
+    const int bands = direct.bandCount();  // the last band is cut (150 rows)
+    std::vector<char> message;
+    for (int band = 0; band < bands; ++band) {
+        std::vector<double> rows = bandImage(traced, frame, band);
+        direct.addBand(band, 1, rows.data(), band % 2 == 0);
+        renderer::writeBandImage(band, 1, band % 2 == 0, rows.data(), frame.widthPx, frame.heightPx, message);
+    }
+    renderer::writeBandCosts(0, std::vector<double>(bands, 0.25), 3.0, 1.5, message);
+    const renderer::BandMessage read = renderer::readBandMessage(message, frame.widthPx, frame.heightPx);
+    ASSERT_EQ(read.images.size(), static_cast<size_t>(bands));
+    EXPECT_EQ(read.bandSeconds.size(), static_cast<size_t>(bands));
+    EXPECT_EQ(read.phaseS, 3.0);
+    EXPECT_EQ(read.phaseCpuS, 1.5);
+    // Only the runs holding light travel: the disk covers under a third of the frame.
+    EXPECT_LT(message.size(), static_cast<size_t>(frame.widthPx) * frame.heightPx * 3 * sizeof(double) / 3);
+    std::vector<double> rows;
+    for (const renderer::BandImage& image : read.images) {
+        EXPECT_EQ(image.layer, 1);
+        EXPECT_EQ(image.inTotal, image.band % 2 == 0);
+        renderer::readBandImage(message, image, frame.widthPx, frame.heightPx, rows);
+        copied.addBand(image.band, image.layer, rows.data(), image.inTotal);
+    }
+    direct.endPass(1000);
+    copied.endPass(1000);
+    for (int layer = 0; layer < 2; ++layer)
+        EXPECT_EQ(direct.irradianceXyz(layer, 1000.0), copied.irradianceXyz(layer, 1000.0)) << layer;
+    EXPECT_EQ(direct.varianceRgb(), copied.varianceRgb());
+    // A cut message is refused.
+    const std::vector<char> shorter(message.begin(), message.begin() + static_cast<long>(message.size() / 2));
+    EXPECT_THROW(renderer::readBandMessage(shorter, frame.widthPx, frame.heightPx), std::runtime_error);
 }
 
 }  // namespace

@@ -24,8 +24,8 @@ namespace flare {
 namespace {
 
 // R ranks in one process: a rank deposits its message, all meet, rank 0 takes every message, all
-// meet again (so that no rank's next message overwrites one rank 0 has not taken); a broadcast
-// likewise.
+// meet again (so that no rank's next message overwrites one rank 0 has not taken); an exchange of
+// messages between every pair and a broadcast likewise.
 class ThreadRanks {
 public:
     explicit ThreadRanks(int size) : size_(size), slots_(size), meet_(size) {}
@@ -40,18 +40,33 @@ public:
         }
         meet_.arrive_and_wait();
     }
+    void allToAll(int rank, const std::vector<std::vector<char>>& out, std::vector<std::vector<char>>& in) {
+        mail_[rank] = out;
+        meet_.arrive_and_wait();
+        in.assign(size_, {});
+        for (int r = 0; r < size_; ++r)
+            if (r != rank) in[r] = mail_[r][rank];
+        meet_.arrive_and_wait();
+    }
+    void broadcast(int rank, std::vector<int>& values) {
+        if (rank == 0) values_ = values;
+        meet_.arrive_and_wait();
+        const std::vector<int> root = values_;
+        meet_.arrive_and_wait();
+        ASSERT_EQ(root.size(), values.size());
+        values = root;
+    }
     int broadcast(int rank, int value) {
-        if (rank == 0) value_ = value;
-        meet_.arrive_and_wait();
-        const int root = value_;
-        meet_.arrive_and_wait();
-        return root;
+        std::vector<int> values{value};
+        broadcast(rank, values);
+        return values[0];
     }
 
 private:
     int size_;
     std::vector<std::vector<char>> slots_;
-    int value_ = 0;
+    std::vector<std::vector<std::vector<char>>> mail_ = std::vector<std::vector<std::vector<char>>>(size_);
+    std::vector<int> values_;
     std::barrier<> meet_;
 };
 
@@ -63,7 +78,11 @@ public:
     void gatherAtRoot(const std::vector<char>& mine, std::vector<std::vector<char>>& all) override {
         ranks_.gather(rank_, mine, all);
     }
+    void allToAll(const std::vector<std::vector<char>>& out, std::vector<std::vector<char>>& in) override {
+        ranks_.allToAll(rank_, out, in);
+    }
     int broadcastFromRoot(int value) override { return ranks_.broadcast(rank_, value); }
+    void broadcastFromRoot(std::vector<int>& values) override { ranks_.broadcast(rank_, values); }
 
 private:
     ThreadRanks& ranks_;
@@ -72,7 +91,7 @@ private:
 
 Scene dustyScene() {
     return parseSceneText(R"({"lens": "double-gauss-50mm", "f_number": 4,
-        "sensor": {"resolution": [96, 64]},
+        "sensor": {"resolution": [192, 128]},
         "lights": [{"type": "directional", "field_deg": [11, 8], "angular_diameter_deg": 0.53}],
         "scattering": {"dust": [{"surface": 1, "coverage": 0.02}]},
         "render": {"diffraction": false}})",
