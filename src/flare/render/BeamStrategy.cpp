@@ -243,8 +243,9 @@ void traceBeam(const LensSystem& lens, const RenderOptions& options, const Photo
     const WavelengthSampler& wavelengths = *light.beamWavelengths[job.slot];
     const double wavelengthNm = wavelengths.sample(u[0], &pdfPerNm);
     BeamSample sample;
-    sample.xyzWeight = wavelengths.xyzWeight(wavelengthNm, pdfPerNm);
     sample.lightU = concentricToPolarUniforms(u[1], u[2]);
+    // (A region light's point reweights the wavelength by its own colour.)
+    sample.xyzWeight = wavelengths.xyzWeight(wavelengthNm, pdfPerNm) * light.sampler.colourFactor(sample.lightU.x, wavelengthNm);
     sample.central = light.sampler.rayThrough(0.0, 0.0, sample.lightU.x, sample.lightU.y);
     // Parallel rays carry the same power per mm² of the plane; a point's rays carry its inverse
     // square and obliquity, which every vertex's throughput takes relative to the central ray's.

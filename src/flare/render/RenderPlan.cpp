@@ -135,17 +135,14 @@ std::vector<PathSpectrum> prunePathsBySpectrum(const LensSystem& lens, const Spe
 }
 
 // The guide masks' probes: the analysis's own rays first, then the ends and quarters of the
-// visible at the light's centre, then its extent's edge (a sun's rim, a disk's circumference) at
-// the ends and the middle. A path's live region moves with both.
+// visible at the light's centre, then its extent's edge (a sun's rim, a disk's circumference, a
+// region's outermost points) at the ends and the middle. A path's live region moves with both.
 std::vector<GuideMask::Probe> maskProbes(const LensSystem& lens, const LightSampler& sampler, const PupilGrid& grid,
                                          double analysisNm) {
     std::vector<GuideMask::Probe> probes{{grid, lens.indicesAt(analysisNm)}};
     for (double nm : kMaskProbeNm) probes.push_back({grid, lens.indicesAt(nm)});
-    if (!sampler.hasExtent()) return probes;
-    for (int k = 0; k < kMaskProbeRimPoints; ++k) {
-        const PupilGrid rim = sampler.gridFor(1.0, (k + 0.5) / kMaskProbeRimPoints);
+    for (const PupilGrid& rim : sampler.rimGrids(kMaskProbeRimPoints))
         for (double nm : {kMaskProbeNm[0], analysisNm, kMaskProbeNm[1]}) probes.push_back({rim, lens.indicesAt(nm)});
-    }
     return probes;
 }
 

@@ -45,7 +45,10 @@ PreviewLight previewLight(const LightSpec& spec, int wavelengths) {
     light.spectrum = spectralQuadrature(toSpectrum(spec.spectrum), wavelengths);
     if (spec.type == LightSpec::Type::Directional) {
         light.irradiance = spec.power;
-        light.angularDiameterDeg = spec.angularDiameterDeg;
+        // A region light's points: a disk of its extent about its centre (the preview's direct image
+        // is a mesh of one direction; `flare composite` takes the real one from the plate).
+        light.angularDiameterDeg = spec.isRegion() ? 2.0 * spec.apparentRadiusRad() * 180.0 / std::numbers::pi
+                                                   : spec.angularDiameterDeg;
     } else {
         const double distanceM = glm::length(spec.positionMm) * 1e-3;
         light.irradiance = spec.power / (distanceM * distanceM);
@@ -113,20 +116,22 @@ ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGh
     direct.widthPx = result.widthPx;
     direct.heightPx = result.heightPx;
     for (size_t l = 0; l < scene.lights.size(); ++l) {
+        const LightPlan& plan = renderer.lights()[l];
+        result.renderedGhosts += plan.beamGhosts;
+        result.prunedGhosts += plan.prunedGhosts;
+        if (!budget.direct) continue;
         GhostReport report = renderer.ghostReport(static_cast<int>(l));
         for (GhostEstimate& g : report.ghosts) g.pruned = true;
         const PreviewImage image =
             renderPreview(lens, previewLight(scene.lights[l], scene.render.previewWavelengths), report, direct);
         add(result.direct, image.direct.xyz);
-        const LightPlan& plan = renderer.lights()[l];
-        result.renderedGhosts += plan.beamGhosts;
-        result.prunedGhosts += plan.prunedGhosts;
     }
+    if (!budget.direct) result.direct.assign(3 * static_cast<size_t>(result.widthPx) * result.heightPx, 0.0f);
     result.tracedRays = renderer.statistics().beamRays;
     result.leftOut = "scattering, the ghosts' parts the final render leaves to photons (pruned ghosts, rays outside the "
                      "guide masks)";
     if (!budget.higher) result.leftOut += ", the order-4 chains (`higher`)";
-    if (scene.render.diffraction)
+    if (scene.render.diffraction && budget.direct)
         result.starburst = sceneStarburst(scene, lens, result.direct, result.widthPx, result.heightPx);
     return result;
 }
