@@ -179,6 +179,10 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
     const std::string thresholdRule = sources.thresholdRule;
     const long sourcePixels = sources.sourcePixels;
     double regionDeg = o.regionDeg;
+    // Where the time goes (wall seconds, printed at the end): the sources and their lights, the
+    // ghosts, the starburst, the rest (reading, writing).
+    double lightsS = 0.0, ghostsS = 0.0, starburstS = 0.0;
+    Clock::time_point phase = Clock::now();
     PlateLightSet found;
     double matchRadiusPx = 0.0;
     if (o.cells) {
@@ -190,8 +194,8 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
         matchRadiusPx = cellPx;
     } else {
         std::vector<PlateRegion> regions = plateRegions(map, sources, regionDeg);
-        while (static_cast<int>(regions.size()) > o.maxLights && regionDeg < kMaxRegionRadiusDeg) {
-            regionDeg = std::min(kMaxRegionRadiusDeg, 1.5 * regionDeg);
+        while (static_cast<int>(regions.size()) > o.maxLights && regionDeg < kDefaultRegionRadiusDeg) {
+            regionDeg = std::min(kDefaultRegionRadiusDeg, 1.5 * regionDeg);
             regions = plateRegions(map, sources, regionDeg);
         }
         found = plateRegionLights(lens, map, regions, o.cullShare);
@@ -199,6 +203,7 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
         matchRadiusPx = regionDeg * std::numbers::pi / 180.0 / std::sqrt(map.pixelSolidAngleSr(0.0));
     }
     sources.thresholdRule = thresholdRule;
+    lightsS = secondsSince(phase);
     if (previous) matchPrevious(found.lights, *previous, matchRadiusPx);
     std::vector<FrameLight> frameLights;
     for (const PlateLight& l : found.lights) frameLights.push_back({l.cell.centroidPx, l.spec});
@@ -237,7 +242,9 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
         // The preview's own starburst diffracts the lights' modelled direct image; the plate's
         // sources are diffracted below instead.
         plateScene.render.diffraction = false;
+        phase = Clock::now();
         plateFlare = renderFlare(plateScene, lens, o, o.layers.given, start, true);
+        ghostsS = secondsSince(phase);
     }
     if (!extra.empty()) {
         Scene extraScene = scene;
@@ -273,7 +280,9 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
             // and the centre lies within it: twice the radius from the centroid at most).
             StarburstOptions crops;
             if (!o.cells) crops.maxCropRadiusPx = std::max(crops.maxCropRadiusPx, static_cast<int>(std::ceil(2.0 * matchRadiusPx)) + 2);
+            phase = Clock::now();
             const StarburstImage starburst = sceneStarburst(plateScene, lens, sourceXyz, w, h, crops);
+            starburstS = secondsSince(phase);
             addInto(starburstDelta, starburst.xyz);
             addInto(starburstDelta, sourceXyz, -1.0f);
         }
@@ -346,7 +355,8 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
         if (!found.lights.empty())
             std::fprintf(stderr, "composite: %d ghosts by beams, %d passes, estimated ghost error %.2g%%\n",
                          plateFlare.renderedGhosts, plateFlare.passes, 100.0 * plateFlare.ghostEstimatedError);
-        std::fprintf(stderr, "composite: %zu light(s), %.2f s\n", scene.lights.size(), secondsSince(start));
+        std::fprintf(stderr, "composite: %zu light(s), %.2f s (lights %.2f s, ghosts %.2f s, starburst %.2f s)\n",
+                     scene.lights.size(), secondsSince(start), lightsS, ghostsS, starburstS);
     }
     std::printf("wrote %s%s%s%s%s\n", o.exr.c_str(), o.pngGiven ? " and " : "", o.pngGiven ? o.png.c_str() : "",
                 o.lightsJson.empty() ? "" : " and ", o.lightsJson.c_str());
@@ -425,15 +435,16 @@ void addCompositeCommand(CLI::App& app) {
     c->add_option("--threshold", o->threshold, "luminance above which a pixel is a source (default: from the image)")
         ->check(CLI::NonNegativeNumber);
     c->add_option("--region-deg", o->regionDeg,
-                  "largest angular radius of a region light, whose rays come from its own source pixels (default 3)")
-        ->check(CLI::Range(1e-3, kMaxRegionRadiusDeg));
+                  "largest angular radius of a region light, whose rays come from its own source pixels (default and "
+                  "largest 2.5)")
+        ->check(CLI::Range(1e-3, kDefaultRegionRadiusDeg));
     c->add_option("--cell-px", o->cellPx,
                   "merge the source pixels into the cells of a grid of this side instead, one light at each cell's "
                   "centroid")
         ->check(CLI::Range(1, 4096))
         ->excludes("--region-deg");
     c->add_option("--max-lights", o->maxLights,
-                  "at most this many lights: regions (up to 10 deg) or cells grow until they fit (default 64)")
+                  "at most this many lights: cells (with --cell-px) or regions (up to 2.5 deg) grow until they fit (default 64)")
         ->check(CLI::Range(1, 65536));
     c->add_option("--cull-share", o->cullShare,
                   "leave out the dimmest cells while together they hold at most this share of the power (default 1e-3)")

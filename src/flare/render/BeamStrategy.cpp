@@ -26,6 +26,8 @@ constexpr double kMaxBeamShare = 0.05;
 // The share of the beam budget that may go to giving every beam-rendered path of a layer a beam
 // per pass (per layer: the ghosts, the order-4 chains).
 constexpr double kFloorBudgetShare = 0.1;
+// The outermost points of a region light that probe a ghost its centre misses (LightSampler::rimGrids).
+constexpr int kRegionProbeRimPoints = 8;
 
 // Shirley and Chiu's concentric map of the unit square onto the unit disk, as (r², φ / 2π): the
 // uniforms LightSampler::rayThrough takes for a point of the light's disk. It keeps the
@@ -166,8 +168,15 @@ BeamProbe probeBeamPath(const LensSystem& lens, const SpectralIndices& indices, 
     const BundleTracer probeTracer(lens, indices, estimate.path.reflections);
     PupilRemeshOptions remesh;
     remesh.minLevel = options.beamMeshLevel;
-    const GhostBeam probe = GhostBeam::build(probeTracer, light.report.grid, light.beamLattices[slot], light.masks[slot],
-                                             filmFrame(options.film), remesh);
+    GhostBeam probe = GhostBeam::build(probeTracer, light.report.grid, light.beamLattices[slot], light.masks[slot],
+                                       filmFrame(options.film), remesh);
+    // A region light's centre need not hold a point, nor see every ghost its points see: its
+    // outermost points probe a ghost the centre misses.
+    if (probe.empty() && light.sampler.light().isRegion())
+        for (const PupilGrid& rim : light.sampler.rimGrids(kRegionProbeRimPoints)) {
+            probe = GhostBeam::build(probeTracer, rim, light.beamLattices[slot], light.masks[slot], filmFrame(options.film), remesh);
+            if (!probe.empty()) break;
+        }
     if (probe.empty()) return out;
     double squaredNorm = 0.0, imageAreaPx2 = 0.0;
     for (const BeamTriangle& t : probe.triangles()) {

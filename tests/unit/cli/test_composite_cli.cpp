@@ -181,7 +181,7 @@ TEST(CompositeCli, RegionLightsAreWrittenAndRenderTheFlare) {
     const test::CliRun r =
         test::runCli("composite " + plate + " " + kLens + " -o " + out + " --lights-json " + lights + " --threshold 1");
     ASSERT_EQ(r.exitCode, 0) << r.out;
-    EXPECT_NE(r.out.find("2 region lights of up to 3 deg"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("2 region lights of up to 2.5 deg"), std::string::npos) << r.out;
     const nlohmann::json scene = readJson(lights);
     ASSERT_EQ(scene["lights"].size(), 2u);
     const nlohmann::json& blob = scene["lights"][0];  // the strongest first
