@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <numbers>
 #include <optional>
 #include <set>
 #include <string>
@@ -20,6 +21,7 @@
 #include "flare/scene/Plate.h"
 #include "flare/scene/PlateDisplay.h"
 #include "flare/scene/PlateLights.h"
+#include "flare/scene/PlateRegions.h"
 #include "flare/scene/PlateSources.h"
 #include "flare/scene/Scene.h"
 #include "flare/scene/SceneJson.h"
@@ -42,10 +44,12 @@ struct CompositeOptions {
     std::optional<double> threshold;
     int maxLights = 64;
     int cellPx = 16;
+    bool cells = false;  // --cell-px given: merge into cells (else region lights)
+    double regionDeg = kDefaultRegionRadiusDeg;
     double cullShare = 1e-3;
     LayersOption layers;
     int passes = PreviewBudget::kDefaultPasses;
-    int beamsPerPass = 64;
+    int beamsPerPass = 0;  // 0: 256 per region light, 64 per cell (--cell-px gives many more lights)
     double timeS = 0.0;
     double targetError = 0.0;
     long long seed = -1;
@@ -76,12 +80,13 @@ void addInto(std::vector<float>& into, const std::vector<float>& from, float sig
 // Renders `scene`'s preview with the budget: --passes, --time, or --target-error (passes grown
 // from the estimated error, which falls at least as one over the square root of the passes).
 ScenePreview renderFlare(const Scene& scene, const LensSystem& lens, const CompositeOptions& o, bool perGhost,
-                         Clock::time_point start) {
+                         Clock::time_point start, bool plate) {
     PreviewBudget budget;
     budget.passes = o.passes;
     budget.beamsPerPass = o.beamsPerPass;
     if (o.seed >= 0) budget.seed = static_cast<std::uint64_t>(o.seed);
     budget.ghostLayers = o.layers.selection;
+    budget.direct = !plate;  // the plate holds its sources' own image
     if (o.timeS > 0.0) budget.timeS = std::max(1e-3, o.timeS - secondsSince(start));
     ScenePreview preview = previewScene(scene, lens, perGhost, budget);
     while (o.targetError > 0.0 && preview.ghostEstimatedError > o.targetError && budget.passes < (1 << 16)) {
@@ -167,17 +172,39 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
     const LensSystem lens = buildSceneLens(scene);
     const PlateFieldMap map(lens, w, h);
 
-    // Sources: cells of --cell-px, grown until at most --max-lights remain.
-    int cellPx = o.cellPx;
+    // Sources: region lights of at most --region-deg, grown until at most --max-lights remain;
+    // or with --cell-px, cells grown likewise, each merged into one light.
+    int cellPx = o.cells ? o.cellPx : 1;
     PlateSources sources = findPlateSources(plate, o.threshold, cellPx);
     const std::string thresholdRule = sources.thresholdRule;
-    while (static_cast<int>(sources.cells.size()) > o.maxLights && cellPx < std::max(w, h)) {
-        cellPx *= 2;
-        sources = findPlateSources(plate, sources.threshold, cellPx);
+    const long sourcePixels = sources.sourcePixels;
+    double regionDeg = o.regionDeg;
+    // Where the time goes (wall seconds, printed at the end): the sources and their lights, the
+    // ghosts, the starburst, the rest (reading, writing).
+    double lightsS = 0.0, ghostsS = 0.0, starburstS = 0.0;
+    Clock::time_point phase = Clock::now();
+    PlateLightSet found;
+    double matchRadiusPx = 0.0;
+    if (o.cells) {
+        while (static_cast<int>(sources.cells.size()) > o.maxLights && cellPx < std::max(w, h)) {
+            cellPx *= 2;
+            sources = findPlateSources(plate, sources.threshold, cellPx);
+        }
+        found = plateLights(lens, map, sources, o.cullShare);
+        matchRadiusPx = cellPx;
+    } else {
+        std::vector<PlateRegion> regions = plateRegions(map, sources, regionDeg);
+        while (static_cast<int>(regions.size()) > o.maxLights && regionDeg < kDefaultRegionRadiusDeg) {
+            regionDeg = std::min(kDefaultRegionRadiusDeg, 1.5 * regionDeg);
+            regions = plateRegions(map, sources, regionDeg);
+        }
+        found = plateRegionLights(lens, map, regions, o.cullShare);
+        // A region's own radius in pixels on the axis (a pixel's angle there: √ of its solid angle).
+        matchRadiusPx = regionDeg * std::numbers::pi / 180.0 / std::sqrt(map.pixelSolidAngleSr(0.0));
     }
     sources.thresholdRule = thresholdRule;
-    PlateLightSet found = plateLights(lens, map, sources, o.cullShare);
-    if (previous) matchPrevious(found.lights, *previous, cellPx);
+    lightsS = secondsSince(phase);
+    if (previous) matchPrevious(found.lights, *previous, matchRadiusPx);
     std::vector<FrameLight> frameLights;
     for (const PlateLight& l : found.lights) frameLights.push_back({l.cell.centroidPx, l.spec});
     for (const PlateLight& l : found.lights) scene.lights.push_back(l.spec);
@@ -190,12 +217,17 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
     if (!o.quiet) {
         std::fprintf(stderr, "composite: plate %d x %d, colour space %s (%s)\n", w, h, plate.space.name.c_str(),
                      plate.space.source.c_str());
-        std::fprintf(stderr, "composite: threshold Y > %.6g (%s); %ld source pixels in %d sources, %zu cells of up to %d px\n",
-                     sources.threshold, sources.thresholdRule.c_str(), sources.sourcePixels, sources.groups,
-                     sources.cells.size(), cellPx);
+        if (o.cells)
+            std::fprintf(stderr, "composite: threshold Y > %.6g (%s); %ld source pixels in %d sources, %zu cells of up to %d px\n",
+                         sources.threshold, sources.thresholdRule.c_str(), sourcePixels, sources.groups,
+                         sources.cells.size(), cellPx);
+        else
+            std::fprintf(stderr, "composite: threshold Y > %.6g (%s); %ld source pixels in %d sources, %zu region lights of up to %.3g deg\n",
+                         sources.threshold, sources.thresholdRule.c_str(), sourcePixels, sources.groups,
+                         found.lights.size() + static_cast<size_t>(found.culled), regionDeg);
         if (found.culled)
-            std::fprintf(stderr, "composite: culled the %d dimmest cells (%.3g%% of the sources' power)\n", found.culled,
-                         100.0 * found.culledPowerShare);
+            std::fprintf(stderr, "composite: culled the %d dimmest %s (%.3g%% of the sources' power)\n", found.culled,
+                         o.cells ? "cells" : "regions", 100.0 * found.culledPowerShare);
     }
 
     ScenePreview plateFlare;
@@ -210,12 +242,14 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
         // The preview's own starburst diffracts the lights' modelled direct image; the plate's
         // sources are diffracted below instead.
         plateScene.render.diffraction = false;
-        plateFlare = renderFlare(plateScene, lens, o, o.layers.given, start);
+        phase = Clock::now();
+        plateFlare = renderFlare(plateScene, lens, o, o.layers.given, start, true);
+        ghostsS = secondsSince(phase);
     }
     if (!extra.empty()) {
         Scene extraScene = scene;
         extraScene.lights.assign(scene.lights.end() - static_cast<long>(extra.size()), scene.lights.end());
-        extraFlare = renderFlare(extraScene, lens, o, false, start);
+        extraFlare = renderFlare(extraScene, lens, o, false, start, false);
     }
     if (found.lights.empty()) {
         std::fprintf(stderr, "composite: warning: no pixel of %s has Y above the threshold %.6g (brightest %.6g): %s\n",
@@ -242,7 +276,13 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
             }
             Scene plateScene = scene;
             plateScene.lights.resize(found.lights.size());
-            const StarburstImage starburst = sceneStarburst(plateScene, lens, sourceXyz, w, h);
+            // A region's pixels all go into its crop (a region reaches its radius from its centre
+            // and the centre lies within it: twice the radius from the centroid at most).
+            StarburstOptions crops;
+            if (!o.cells) crops.maxCropRadiusPx = std::max(crops.maxCropRadiusPx, static_cast<int>(std::ceil(2.0 * matchRadiusPx)) + 2);
+            phase = Clock::now();
+            const StarburstImage starburst = sceneStarburst(plateScene, lens, sourceXyz, w, h, crops);
+            starburstS = secondsSince(phase);
             addInto(starburstDelta, starburst.xyz);
             addInto(starburstDelta, sourceXyz, -1.0f);
         }
@@ -315,7 +355,8 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
         if (!found.lights.empty())
             std::fprintf(stderr, "composite: %d ghosts by beams, %d passes, estimated ghost error %.2g%%\n",
                          plateFlare.renderedGhosts, plateFlare.passes, 100.0 * plateFlare.ghostEstimatedError);
-        std::fprintf(stderr, "composite: %zu light(s), %.2f s\n", scene.lights.size(), secondsSince(start));
+        std::fprintf(stderr, "composite: %zu light(s), %.2f s (lights %.2f s, ghosts %.2f s, starburst %.2f s)\n",
+                     scene.lights.size(), secondsSince(start), lightsS, ghostsS, starburstS);
     }
     std::printf("wrote %s%s%s%s%s\n", o.exr.c_str(), o.pngGiven ? " and " : "", o.pngGiven ? o.png.c_str() : "",
                 o.lightsJson.empty() ? "" : " and ", o.lightsJson.c_str());
@@ -393,9 +434,17 @@ void addCompositeCommand(CLI::App& app) {
                   "(default: the file's chromaticities)");
     c->add_option("--threshold", o->threshold, "luminance above which a pixel is a source (default: from the image)")
         ->check(CLI::NonNegativeNumber);
-    c->add_option("--cell-px", o->cellPx, "side in pixels of the grid cells the source pixels are gathered in, one light each (default 16)")
-        ->check(CLI::Range(1, 4096));
-    c->add_option("--max-lights", o->maxLights, "at most this many lights: cells grow until they fit (default 64)")
+    c->add_option("--region-deg", o->regionDeg,
+                  "largest angular radius of a region light, whose rays come from its own source pixels (default and "
+                  "largest 2.5)")
+        ->check(CLI::Range(1e-3, kDefaultRegionRadiusDeg));
+    c->add_option("--cell-px", o->cellPx,
+                  "merge the source pixels into the cells of a grid of this side instead, one light at each cell's "
+                  "centroid")
+        ->check(CLI::Range(1, 4096))
+        ->excludes("--region-deg");
+    c->add_option("--max-lights", o->maxLights,
+                  "at most this many lights: cells (with --cell-px) or regions (up to 2.5 deg) grow until they fit (default 64)")
         ->check(CLI::Range(1, 65536));
     c->add_option("--cull-share", o->cullShare,
                   "leave out the dimmest cells while together they hold at most this share of the power (default 1e-3)")
@@ -412,8 +461,8 @@ void addCompositeCommand(CLI::App& app) {
     time->excludes(passes)->excludes(error);
     error->excludes(passes);
     c->add_option("--beams-per-pass", o->beamsPerPass,
-                  "beams per pass and light (default 64: many lights share the frame, and each light's error "
-                  "matters in proportion to its power)")
+                  "beams per pass and light (default 256 per region light, 64 per cell with --cell-px: many "
+                  "lights share the frame, and each light's error matters in proportion to its power)")
         ->check(CLI::Range(8, 32768));
     c->add_option("--frames", o->frames,
                   "a sequence FIRST-LAST: PLATE, -o (and --png, --lights-json) hold the frame number as '####'; "
@@ -422,6 +471,8 @@ void addCompositeCommand(CLI::App& app) {
     c->add_flag("--quiet", o->quiet, "no statistics on stderr");
     c->callback([o, c] {
         o->pngGiven = c->count("--png") > 0;
+        o->cells = c->count("--cell-px") > 0;
+        if (o->beamsPerPass == 0) o->beamsPerPass = o->cells ? 64 : 256;
         if (!o->displayView.display.empty() && !o->pngGiven)
             throw InputError("--display", 0, "a display and view shape the PNG: give --png too");
         resolveLayersOption(c, o->layers, o->plate);

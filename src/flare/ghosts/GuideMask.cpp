@@ -17,7 +17,8 @@ GuideMask::GuideMask(const LivePupilRegion& region) {
 }
 
 GuideMask GuideMask::traced(const LensSystem& lens, std::span<const Probe> probes, const GhostPath& path,
-                            const LivePupilRegion& region, int growCells, double sensorMarginMm, double maxHalfSizeMm) {
+                            const LivePupilRegion& region, int growCells, double sensorMarginMm, double maxHalfSizeMm,
+                            size_t seedProbes) {
     GuideMask mask;
     if (region.empty() || region.liveCount() == 0 || probes.empty()) return mask;
     const double cell = region.cellMm;
@@ -72,13 +73,14 @@ GuideMask GuideMask::traced(const LensSystem& lens, std::span<const Probe> probe
         return fresh;
     };
 
-    // The analysis's window, grown, with the first probe (the analysis's own rays).
+    // The analysis's window, grown, with the first probe (the analysis's own rays), or the first
+    // `seedProbes`.
     std::unordered_set<std::uint64_t> visited;
     std::vector<std::pair<int, int>> cells;
     for (int j = -growCells; j < region.cellsB + growCells; ++j)
         for (int i = -growCells; i < region.cellsA + growCells; ++i)
             if (inside(i, j)) cells.emplace_back(i, j);
-    std::vector<std::pair<int, int>> frontier = traceCells(cells, 0, 1);
+    std::vector<std::pair<int, int>> frontier = traceCells(cells, 0, std::clamp<size_t>(seedProbes, 1, probes.size()));
     for (const auto& [i, j] : frontier) visited.insert(key(i, j));
     // Then outwards, ring by ring: the cells within `growCells` of the last ring's live cells,
     // with every probe, until no new cell is live: the union of the probes' regions where they

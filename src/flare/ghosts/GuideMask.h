@@ -33,13 +33,16 @@ public:
     // 400 nm against 550 nm on a 0.6 mm region). What the mask leaves out goes to the unguided
     // tracer, where each ray is a rare, heavy sample; so the mask also grows outwards from its live
     // cells, `growCells` at a time, as long as any probe finds new live cells, within the square
-    // of half-size `maxHalfSizeMm` about the grid's centre (the analysis's window).
+    // of half-size `maxHalfSizeMm` about the grid's centre (the analysis's window). The window is
+    // first traced with the first probe alone, or with the first `seedProbes` (a region light's
+    // points: the analysis's region need not be live at its centre).
     struct Probe {
         PupilGrid grid;
         SpectralIndices indices;
     };
     static GuideMask traced(const LensSystem& lens, std::span<const Probe> probes, const GhostPath& path,
-                            const LivePupilRegion& region, int growCells, double sensorMarginMm, double maxHalfSizeMm);
+                            const LivePupilRegion& region, int growCells, double sensorMarginMm, double maxHalfSizeMm,
+                            size_t seedProbes = 1);
 
     // `lattice` (an analysis's search cells, PupilLattice) with the mask's live cells added where its
     // leaves do not cover them, when the mask's cells are cells of that lattice (a mask traced

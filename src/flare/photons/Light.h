@@ -5,6 +5,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include <glm/vec3.hpp>
 
@@ -25,6 +26,21 @@ struct SpectrumSpec {
 // The spectral shape a SpectrumSpec names.
 Spectrum toSpectrum(const SpectrumSpec& spec);
 
+// One direction of a region light (LightSpec::region): where it appears in the picture, its share
+// of the light's power and its colour (an index into LightSpec::regionColours).
+struct RegionPoint {
+    double fieldXDeg = 0.0, fieldYDeg = 0.0;
+    double share = 0.0;  // of the light's power; the shares sum to 1
+    int colour = 0;
+};
+
+// The widest a region light may be (its farthest point from its centre): its points share one
+// ghost analysis, one plan and one pupil grid, widened to hold every point's rays (LightSampler).
+// Tested against the same points as separate lights (test_plate_regions.cpp): at 4.35° a ghost of
+// the outer points of the test's region was nearly lost. `flare composite` makes regions of at
+// most 3° by default (PlateRegions.h).
+inline constexpr double kMaxRegionRadiusDeg = 3.0;
+
 struct LightSpec {
     enum class Type { Directional, Point, Disk };
     Type type = Type::Directional;
@@ -35,6 +51,18 @@ struct LightSpec {
     // (light from outside the frame still flares). angularDiameterDeg: full apparent diameter
     // (the sun: 0.53°), 0 for a perfectly collimated source.
     double fieldXDeg = 0.0, fieldYDeg = 0.0, angularDiameterDeg = 0.0;
+
+    // Directional only, optional: a region light (a plate's extended source, `flare composite`).
+    // Its rays come from a discrete set of directions, each with its share of the power and its
+    // colour, as a sun's come from its disk: one ghost analysis and plan for all of them, each
+    // beam and photon drawing one direction by its share (LightSampler). fieldXDeg/fieldYDeg are
+    // then the points' centre (centreOnRegion), angularDiameterDeg is unused, and `spectrum`
+    // is the shape the wavelengths are drawn from (each point's own colour reweights them).
+    std::vector<RegionPoint> region;
+    std::vector<glm::dvec3> regionColours;  // linear Rec.709; only the chromaticity matters
+    bool isRegion() const { return type == Type::Directional && !region.empty(); }
+    // Sets fieldXDeg/fieldYDeg to the share-weighted mean of the points' directions.
+    void centreOnRegion();
 
     // Point and Disk: position in lens space (mm; z < 0 is in front of the first vertex).
     // Disk: a Lambertian disk of radius radiusMm whose normal points at the first vertex.
@@ -53,7 +81,7 @@ struct LightSpec {
     glm::dvec3 travelDirection() const;
     // The radius of the light's apparent disk as the lens sees it, in radians: a directional
     // light's half angular diameter, a disk's radius over its distance from the first vertex
-    // (atan), 0 for a point.
+    // (atan), 0 for a point; a region's largest angle between its centre and a point.
     double apparentRadiusRad() const;
     // Disk: the unit normal of the emitting face (equal to travelDirection(): it faces the lens).
     glm::dvec3 diskNormal() const { return travelDirection(); }

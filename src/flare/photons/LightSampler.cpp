@@ -38,7 +38,31 @@ LightSampler::LightSampler(const LightSpec& light, const LensSystem& lens)
     const double depth = frontDepthMm(lens);
     // Widest angle between an emitted ray and the central direction.
     double spreadRad = 0.0;
-    if (light.type == LightSpec::Type::Directional) {
+    if (light.isRegion()) {
+        double total = 0.0;
+        for (const RegionPoint& p : light.region) {
+            regionDirections_.push_back(directionFromFieldDeg(p.fieldXDeg, p.fieldYDeg));
+            regionCdf_.push_back(total += std::max(p.share, 0.0));
+            regionColour_.push_back(std::clamp(p.colour, 0, std::max(0, static_cast<int>(light.regionColours.size()) - 1)));
+        }
+        for (double& c : regionCdf_) c /= total;
+        regionCdf_.back() = 1.0;
+        ownSpectrum_ = toSpectrum(light.spectrum);
+        const double ownY = spectrumXyz(ownSpectrum_).y;
+        for (const glm::dvec3& rgb : light.regionColours) {
+            SpectrumSpec colour;
+            colour.kind = SpectrumSpec::Kind::Rgb;
+            colour.rgb = rgb;
+            colourSpectra_.push_back(toSpectrum(colour));
+            colourScale_.push_back(ownY / spectrumXyz(colourSpectra_.back()).y);
+        }
+        spreadRad = light.apparentRadiusRad();
+        // Every point's rays must cross the plane within the grid that the analysis, the masks and
+        // the beams share: its window widens by what the inclination shifts the front aperture's
+        // projection (the surface's depth times the tangent), and the rays start farther back.
+        grid_.halfSizeMm += depth * std::tan(spreadRad);
+        grid_.backOffMm += grid_.halfSizeMm * std::tan(spreadRad) + depth;
+    } else if (light.type == LightSpec::Type::Directional) {
         const double halfAngle = 0.5 * light.angularDiameterDeg * kDegToRad;
         cosHalfAngle_ = std::cos(halfAngle);
         meanCosine_ = 0.5 * (1.0 + cosHalfAngle_);
@@ -54,6 +78,48 @@ LightSampler::LightSampler(const LightSpec& light, const LensSystem& lens)
     // A ray inclined by `spread` to the central direction crosses the plane up to depth·tan(spread)
     // away from where it meets the glass.
     emissionHalfSizeMm_ = 1.02 * grid_.halfSizeMm + depth * std::tan(std::min(spreadRad, 1.4));
+}
+
+int LightSampler::regionPoint(double u1) const {
+    const auto it = std::upper_bound(regionCdf_.begin(), regionCdf_.end(), u1);
+    return static_cast<int>(std::min<std::ptrdiff_t>(it - regionCdf_.begin(), static_cast<std::ptrdiff_t>(regionCdf_.size()) - 1));
+}
+
+double LightSampler::colourFactor(double u1, double wavelengthNm) const {
+    if (colourSpectra_.empty()) return 1.0;
+    const double own = ownSpectrum_.value(wavelengthNm);
+    if (!(own > 0.0)) return 0.0;
+    const int c = regionColour_[static_cast<size_t>(regionPoint(u1))];
+    return colourSpectra_[static_cast<size_t>(c)].value(wavelengthNm) * colourScale_[static_cast<size_t>(c)] / own;
+}
+
+std::vector<PupilGrid> LightSampler::rimGrids(int count) const {
+    std::vector<PupilGrid> rims;
+    if (!hasExtent()) return rims;
+    if (!light_.isRegion()) {
+        for (int k = 0; k < count; ++k) rims.push_back(gridFor(1.0, (k + 0.5) / count));
+        return rims;
+    }
+    // The point farthest along each of the azimuths on the plane (e1, e2).
+    const int azimuths = std::max(count, 8);
+    std::vector<int> chosen;
+    for (int k = 0; k < azimuths; ++k) {
+        const double phi = 2.0 * std::numbers::pi * k / azimuths;
+        const glm::dvec3 towards = std::cos(phi) * grid_.e1 + std::sin(phi) * grid_.e2;
+        int best = 0;
+        double farthest = -1e300;
+        for (size_t i = 0; i < regionDirections_.size(); ++i) {
+            const double along = glm::dot(regionDirections_[i], towards);
+            if (along > farthest) farthest = along, best = static_cast<int>(i);
+        }
+        if (std::find(chosen.begin(), chosen.end(), best) == chosen.end()) chosen.push_back(best);
+    }
+    for (int i : chosen) {
+        PupilGrid grid = grid_;
+        grid.direction = regionDirections_[static_cast<size_t>(i)];
+        rims.push_back(grid);
+    }
+    return rims;
 }
 
 PupilGrid LightSampler::gridFor(double u1, double u2) const {
@@ -74,6 +140,14 @@ glm::dvec3 LightSampler::diskPoint(double u1, double u2) const {
 EmittedRay LightSampler::rayThrough(double aMm, double bMm, double u1, double u2) const {
     const glm::dvec3 onPlane = grid_.centreMm + aMm * grid_.e1 + bMm * grid_.e2;
     EmittedRay out;
+    if (!regionDirections_.empty()) {
+        // A point drawn by its share: the light's whole irradiance (normal to the point's rays, E_i
+        // = share·E, drawn with probability share) on the plane normal to the centre, cosθ of it.
+        const glm::dvec3& direction = regionDirections_[static_cast<size_t>(regionPoint(u1))];
+        out.ray = {onPlane - grid_.backOffMm * direction, direction};
+        out.powerPerMm2 = light_.power / kMm2PerM2 * glm::dot(direction, grid_.direction);
+        return out;
+    }
     if (light_.type == LightSpec::Type::Directional) {
         // Uniform over the cone's solid angle. Radiance L is uniform over the disk and the light's
         // irradiance E on the plane is ∫ L cosθ dω = L Ω ⟨cosθ⟩, so a ray drawn with density 1/Ω

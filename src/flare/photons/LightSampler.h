@@ -7,6 +7,9 @@
 // the plane, so that power density × area / probability is an unbiased photon power.
 #pragma once
 
+#include <vector>
+
+#include "flare/core/Spectrum.h"
 #include "flare/optics/PupilGrid.h"
 #include "flare/photons/Light.h"
 
@@ -39,13 +42,24 @@ public:
     // rays); else it varies over the plane (a point's inverse square and obliquity) and beams
     // weight each ray by rayThrough's.
     bool uniformOverPlane() const { return light_.type == LightSpec::Type::Directional; }
-    // Whether the light has an extent (a sun's disk, a disk light's face): gridFor then depends
-    // on (u1, u2).
+    // Whether the light has an extent (a sun's disk, a disk light's face, a region's points):
+    // gridFor then depends on (u1, u2).
     bool hasExtent() const {
-        return light_.type == LightSpec::Type::Directional ? light_.angularDiameterDeg > 0.0
+        return light_.isRegion()                           ? regionDirections_.size() > 1
+               : light_.type == LightSpec::Type::Directional ? light_.angularDiameterDeg > 0.0
                : light_.type == LightSpec::Type::Disk      ? light_.radiusMm > 0.0
                                                            : false;
     }
+    // The grids of the extent's edge, where a path's live region reaches farthest (the guide
+    // masks' probes): a disk's rim at `count` azimuths; a region's points farthest out in at least
+    // 8 azimuths (distinct points only). Empty without an extent.
+    std::vector<PupilGrid> rimGrids(int count) const;
+    // A region light: the point a light uniform u1 draws (by the points' shares), and the factor
+    // its own colour puts on a wavelength drawn from the light's spectrum: the point's spectrum
+    // over the light's, each at unit luminance (so the estimate stays unbiased whatever colour the
+    // light's spectrum is). 1 for every other light.
+    int regionPoint(double u1) const;
+    double colourFactor(double u1, double wavelengthNm) const;
 
 private:
     // A disk light's point for (u1, u2): uniform over its area.
@@ -57,6 +71,14 @@ private:
     double cosHalfAngle_ = 1.0;         // directional: the cone of the light's apparent disk
     double meanCosine_ = 1.0;           // of rays uniform over that cone
     glm::dvec3 diskU_{1, 0, 0}, diskV_{0, 1, 0};
+    // A region light: per point its direction, cumulative share and colour; per colour its
+    // spectrum at unit luminance relative to the light's (the light's spectrum at unit luminance).
+    std::vector<glm::dvec3> regionDirections_;
+    std::vector<double> regionCdf_;
+    std::vector<int> regionColour_;
+    Spectrum ownSpectrum_;
+    std::vector<Spectrum> colourSpectra_;
+    std::vector<double> colourScale_;  // Y(light's spectrum) / Y(colour's spectrum)
 };
 
 }  // namespace flare

@@ -26,6 +26,8 @@ constexpr double kMaxBeamShare = 0.05;
 // The share of the beam budget that may go to giving every beam-rendered path of a layer a beam
 // per pass (per layer: the ghosts, the order-4 chains).
 constexpr double kFloorBudgetShare = 0.1;
+// The outermost points of a region light that probe a ghost its centre misses (LightSampler::rimGrids).
+constexpr int kRegionProbeRimPoints = 8;
 
 // Shirley and Chiu's concentric map of the unit square onto the unit disk, as (r², φ / 2π): the
 // uniforms LightSampler::rayThrough takes for a point of the light's disk. It keeps the
@@ -166,8 +168,15 @@ BeamProbe probeBeamPath(const LensSystem& lens, const SpectralIndices& indices, 
     const BundleTracer probeTracer(lens, indices, estimate.path.reflections);
     PupilRemeshOptions remesh;
     remesh.minLevel = options.beamMeshLevel;
-    const GhostBeam probe = GhostBeam::build(probeTracer, light.report.grid, light.beamLattices[slot], light.masks[slot],
-                                             filmFrame(options.film), remesh);
+    GhostBeam probe = GhostBeam::build(probeTracer, light.report.grid, light.beamLattices[slot], light.masks[slot],
+                                       filmFrame(options.film), remesh);
+    // A region light's centre need not hold a point, nor see every ghost its points see: its
+    // outermost points probe a ghost the centre misses.
+    if (probe.empty() && light.sampler.light().isRegion())
+        for (const PupilGrid& rim : light.sampler.rimGrids(kRegionProbeRimPoints)) {
+            probe = GhostBeam::build(probeTracer, rim, light.beamLattices[slot], light.masks[slot], filmFrame(options.film), remesh);
+            if (!probe.empty()) break;
+        }
     if (probe.empty()) return out;
     double squaredNorm = 0.0, imageAreaPx2 = 0.0;
     for (const BeamTriangle& t : probe.triangles()) {
@@ -243,8 +252,9 @@ void traceBeam(const LensSystem& lens, const RenderOptions& options, const Photo
     const WavelengthSampler& wavelengths = *light.beamWavelengths[job.slot];
     const double wavelengthNm = wavelengths.sample(u[0], &pdfPerNm);
     BeamSample sample;
-    sample.xyzWeight = wavelengths.xyzWeight(wavelengthNm, pdfPerNm);
     sample.lightU = concentricToPolarUniforms(u[1], u[2]);
+    // (A region light's point reweights the wavelength by its own colour.)
+    sample.xyzWeight = wavelengths.xyzWeight(wavelengthNm, pdfPerNm) * light.sampler.colourFactor(sample.lightU.x, wavelengthNm);
     sample.central = light.sampler.rayThrough(0.0, 0.0, sample.lightU.x, sample.lightU.y);
     // Parallel rays carry the same power per mm² of the plane; a point's rays carry its inverse
     // square and obliquity, which every vertex's throughput takes relative to the central ray's.

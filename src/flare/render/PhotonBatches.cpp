@@ -141,7 +141,7 @@ void BatchTracer::run() {
         const LightState& light = in_.lights[component.light];
         double pdfPerNm = 0.0;
         const double wavelengthNm = light.wavelengths.sample(rng_.uniform(), &pdfPerNm);
-        const glm::dvec3 xyzWeight = light.wavelengths.xyzWeight(wavelengthNm, pdfPerNm);
+        glm::dvec3 xyzWeight = light.wavelengths.xyzWeight(wavelengthNm, pdfPerNm);
         // The indices go straight where the photon's trace reads them.
         SpectralIndices& indices = component.slot < 0 ? buffers_.indices[buffers_.pending.size()]
                                    : guidedInPackets_ ? buffers_.guidedIndices[buffers_.guided.size()]
@@ -149,6 +149,8 @@ void BatchTracer::run() {
         in_.indexTable.fill(wavelengthNm, indices);
         // (A braced list's initialisers are evaluated in order.)
         const EmissionUniforms u{rng_.uniform(), rng_.uniform(), rng_.uniform(), rng_.uniform(), rng_.uniform()};
+        // (A region light's point reweights the wavelength by its own colour.)
+        xyzWeight *= light.sampler.colourFactor(u.uLight1, wavelengthNm);
 
         if (component.slot >= 0) emitGuided(c, wavelengthNm, xyzWeight, indices, u);
         else emitUnguided(component, photon, xyzWeight, u);

@@ -1,6 +1,7 @@
 #include "flare/render/RenderPlan.h"
 
 #include <algorithm>
+#include <optional>
 #include <span>
 #include <string>
 #include <utility>
@@ -108,6 +109,46 @@ void planHigherOrder(const LensSystem& lens, const RenderOptions& options, Ghost
     plan.higherOrderPaths = kept;
 }
 
+// A region light's analysis is at its centre, where a ghost may be weak or miss the sensor while
+// its outer points make it strong (a ghost's image and vignetting move with the field angle, and
+// the centre need not hold a point at all). Each ghost the centre pruned is estimated again at the
+// region's outermost points (and so is one the centre kept with nothing live there); one that is
+// there at least as strong as the weakest ghost the centre kept is kept, with that point's
+// estimate (its live pupil region seeds the guide mask, which every probe then grows over all the
+// points: GuideMask::traced's seedProbes).
+void keepRegionRimGhosts(const LensSystem& lens, const LightSampler& sampler, const RenderOptions& options,
+                         GhostReport& report) {
+    if (!sampler.light().isRegion() || options.mode == RenderOptions::Mode::Naive) return;
+    const std::vector<PupilGrid> rims = sampler.rimGrids(kMaskProbeRimPoints);
+    if (rims.empty()) return;
+    double weakestKept = 1e300;
+    for (const GhostEstimate& g : report.ghosts)
+        if (!g.pruned && g.path.reflections.size() == 2 && g.powerFraction > 0.0) weakestKept = std::min(weakestKept, g.powerFraction);
+    if (weakestKept == 1e300) return;
+    const SpectralIndices indices = lens.indicesAt(options.analysis.wavelengthNm);
+    std::vector<std::optional<GhostEstimate>> stronger(report.ghosts.size());
+    tbb::parallel_for(0, static_cast<int>(report.ghosts.size()), [&](int g) {
+        const GhostEstimate& estimate = report.ghosts[g];
+        // (Pruned, or kept with nothing live at the centre: its mask would be empty.)
+        const bool dark = !(estimate.powerFraction > 0.0) || estimate.pupil.liveCount() == 0;
+        if (!(estimate.pruned || dark) || estimate.path.reflections.size() != 2) return;
+        for (const PupilGrid& rim : rims) {
+            GhostEstimate atRim = estimatePath(lens, indices, rim, report.enteringAreaMm2, estimate.path, options.analysis);
+            if (atRim.powerFraction >= weakestKept && (!stronger[g] || atRim.powerFraction > stronger[g]->powerFraction))
+                stronger[g] = std::move(atRim);
+        }
+    });
+    for (size_t g = 0; g < report.ghosts.size(); ++g) {
+        if (!stronger[g]) continue;
+        if (report.ghosts[g].pruned) {
+            --report.prunedCount;
+            report.prunedPowerFraction -= report.ghosts[g].powerFraction;
+        }
+        report.ghosts[g] = std::move(*stronger[g]);
+        report.ghosts[g].pruned = false;
+    }
+}
+
 // Every path's spectrum in this light, for the second pruning (GhostAnalysis.h: the
 // analysis pruned at one wavelength; the zoom's ghost-layer fireflies were ghosts it pruned
 // that reflect far more in the blue and red) and for the beams' wavelengths. Prunes `report`'s
@@ -135,17 +176,14 @@ std::vector<PathSpectrum> prunePathsBySpectrum(const LensSystem& lens, const Spe
 }
 
 // The guide masks' probes: the analysis's own rays first, then the ends and quarters of the
-// visible at the light's centre, then its extent's edge (a sun's rim, a disk's circumference) at
-// the ends and the middle. A path's live region moves with both.
+// visible at the light's centre, then its extent's edge (a sun's rim, a disk's circumference, a
+// region's outermost points) at the ends and the middle. A path's live region moves with both.
 std::vector<GuideMask::Probe> maskProbes(const LensSystem& lens, const LightSampler& sampler, const PupilGrid& grid,
                                          double analysisNm) {
     std::vector<GuideMask::Probe> probes{{grid, lens.indicesAt(analysisNm)}};
     for (double nm : kMaskProbeNm) probes.push_back({grid, lens.indicesAt(nm)});
-    if (!sampler.hasExtent()) return probes;
-    for (int k = 0; k < kMaskProbeRimPoints; ++k) {
-        const PupilGrid rim = sampler.gridFor(1.0, (k + 0.5) / kMaskProbeRimPoints);
+    for (const PupilGrid& rim : sampler.rimGrids(kMaskProbeRimPoints))
         for (double nm : {kMaskProbeNm[0], analysisNm, kMaskProbeNm[1]}) probes.push_back({rim, lens.indicesAt(nm)});
-    }
     return probes;
 }
 
@@ -164,7 +202,7 @@ void planStrategies(const LensSystem& lens, const Spectrum& spectrum, const Rend
         const GhostEstimate& estimate = slot == 0 ? report.direct : report.ghosts[slot - 1];
         if (slot > 0 && estimate.pruned) return;
         state.masks[slot] = GuideMask::traced(lens, probes, estimate.path, estimate.pupil, kGuideGrowCells, marginMm,
-                                              report.grid.halfSizeMm);
+                                              report.grid.halfSizeMm, state.sampler.light().isRegion() ? probes.size() : 1);
         if (state.masks[slot].empty()) return;
         state.strategy[slot] = PathStrategy::Photons;
         if (slot == 0 || !beamLight || estimate.lattice.empty()) return;
@@ -195,6 +233,7 @@ PlannedLight planLight(const LensSystem& lens, const LightSpec& spec, const Rend
     LightState& state = planned.state;
     LightPlan& plan = planned.plan;
     plan.name = spec.name;
+    keepRegionRimGhosts(lens, state.sampler, options, state.report);
     planHigherOrder(lens, options, state.report, plan);
     const std::vector<PathSpectrum> spectra = prunePathsBySpectrum(lens, spectrum, options, state.report, plan);
     const GhostReport& report = state.report;

@@ -151,6 +151,10 @@ PlateLightSet plateLights(const LensSystem& lens, const PlateFieldMap& map, cons
                                  std::to_string(cell.centroidPx.y) + ") reaches the sensor through the lens (vignetted)");
         spec.power = cell.xyzSum.y * pixelAreaMm2 / light.directThroughputMm2;
     });
+    return cullDimmestLights(std::move(lights), cullShare);
+}
+
+PlateLightSet cullDimmestLights(std::vector<PlateLight> lights, double cullShare) {
     std::stable_sort(lights.begin(), lights.end(), [](const PlateLight& a, const PlateLight& b) { return a.spec.power > b.spec.power; });
     PlateLightSet set;
     double total = 0.0;

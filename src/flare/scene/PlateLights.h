@@ -67,4 +67,8 @@ struct PlateLightSet {
 PlateLightSet plateLights(const LensSystem& lens, const PlateFieldMap& map, const PlateSources& sources,
                           double cullShare = 1e-3, const std::string& prefix = "source");
 
+// Sorts the lights strongest first and leaves out the dimmest while together they hold at most
+// `cullShare` of the total power.
+PlateLightSet cullDimmestLights(std::vector<PlateLight> lights, double cullShare);
+
 }  // namespace flare

@@ -26,7 +26,20 @@ nlohmann::json lightJson(const LightSpec& l) {
         case LightSpec::Type::Disk: j["type"] = "disk"; break;
     }
     j["name"] = l.name;
-    if (l.type == LightSpec::Type::Directional) {
+    if (l.isRegion()) {
+        // Centred on its points when read (LightSpec::centreOnRegion): no field_deg.
+        j["type"] = "region";
+        j["points"] = nlohmann::json::array();
+        for (const RegionPoint& p : l.region) {
+            nlohmann::json point = {p.fieldXDeg, p.fieldYDeg, p.share};
+            if (!l.regionColours.empty()) point.push_back(p.colour);
+            j["points"].push_back(point);
+        }
+        if (!l.regionColours.empty()) {
+            j["colours"] = nlohmann::json::array();
+            for (const glm::dvec3& c : l.regionColours) j["colours"].push_back({c.x, c.y, c.z});
+        }
+    } else if (l.type == LightSpec::Type::Directional) {
         j["field_deg"] = {l.fieldXDeg, l.fieldYDeg};
         if (l.angularDiameterDeg > 0.0) j["angular_diameter_deg"] = l.angularDiameterDeg;
     } else {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 namespace flare::scenefile {
 
@@ -9,6 +10,61 @@ namespace {
 
 constexpr double kMaxFieldDeg = 89.9;
 constexpr double kMaxAngularDiameterDeg = 20.0;
+
+// A region light's points ([x_deg, y_deg, share] or [x_deg, y_deg, share, colour]) and colours
+// ([r, g, b] each); centred on its points, within kMaxRegionRadiusDeg of the centre.
+void parseRegion(const Checker& c, const Node& node, const std::string& path, LightSpec& light) {
+    const Member& points = c.require(node, path, "points", " ([[x_deg, y_deg, share], ...])");
+    const std::string pointsPath = child(path, "points");
+    if (points.value.kind != Node::Kind::Array || points.value.items.empty())
+        c.fail(points.value.line, pointsPath, "must be a non-empty array of [x_deg, y_deg, share] or [x_deg, y_deg, share, colour], got " +
+                                                  describe(points.value));
+    std::size_t colours = 0;
+    if (const Member* m = Checker::find(node, "colours")) {
+        const std::string coloursPath = child(path, "colours");
+        if (m->value.kind != Node::Kind::Array || m->value.items.empty())
+            c.fail(m->value.line, coloursPath, "must be a non-empty array of [r, g, b], got " + describe(m->value));
+        for (std::size_t k = 0; k < m->value.items.size(); ++k) {
+            const std::string colourPath = index(coloursPath, k);
+            const auto& rgb = c.numbers(m->value.items[k], colourPath, 3, "[r, g, b] in linear Rec.709");
+            glm::dvec3 colour;
+            for (int j = 0; j < 3; ++j) colour[j] = c.numberIn(rgb[j], index(colourPath, j), -1e12, 1e12, "");
+            if (!(linearSrgbToXyz(colour).y > 0.0))
+                c.fail(m->value.items[k].line, colourPath, "the colour must have a positive luminance (Y > 0)");
+            light.regionColours.push_back(colour);
+        }
+        colours = light.regionColours.size();
+    }
+    double total = 0.0;
+    for (std::size_t k = 0; k < points.value.items.size(); ++k) {
+        const Node& item = points.value.items[k];
+        const std::string pointPath = index(pointsPath, k);
+        const std::size_t size = item.kind == Node::Kind::Array ? item.items.size() : 0;
+        const auto& values = c.numbers(item, pointPath, size == 4 ? 4 : 3,
+                                       colours ? "[x_deg, y_deg, share, colour]" : "[x_deg, y_deg, share]");
+        RegionPoint p;
+        p.fieldXDeg = c.numberIn(values[0], index(pointPath, 0), -kMaxFieldDeg, kMaxFieldDeg, "degrees");
+        p.fieldYDeg = c.numberIn(values[1], index(pointPath, 1), -kMaxFieldDeg, kMaxFieldDeg, "degrees");
+        p.share = c.numberIn(values[2], index(pointPath, 2), 0.0, 1e12, "", true);
+        if (size == 4) {
+            if (!colours) c.fail(item.line, pointPath, "names a colour, but the light has no \"colours\"");
+            p.colour = static_cast<int>(c.integerIn(values[3], index(pointPath, 3), 0, static_cast<std::int64_t>(colours) - 1));
+        } else if (colours > 1) {
+            c.fail(item.line, pointPath, "must name its colour ([x_deg, y_deg, share, colour]): the light has " +
+                                             std::to_string(colours) + " colours");
+        }
+        total += p.share;
+        light.region.push_back(p);
+    }
+    for (RegionPoint& p : light.region) p.share /= total;
+    light.centreOnRegion();
+    const double radiusDeg = light.apparentRadiusRad() * 180.0 / std::numbers::pi;
+    if (radiusDeg > kMaxRegionRadiusDeg)
+        c.fail(points.value.line, pointsPath,
+               "the points reach " + formatDerived(radiusDeg) + " degrees from their centre; a region light spans at most " +
+                   formatNumber(kMaxRegionRadiusDeg) + " (one ghost analysis serves all its points): split it");
+    // (No colours: every point shines in the light's spectrum.)
+}
 
 }  // namespace
 
@@ -44,12 +100,15 @@ SpectrumSpec parseSpectrum(const Checker& c, const Node& node, const std::string
 LightSpec parseLight(const Checker& c, const Node& node, const std::string& path, std::size_t i) {
     LightSpec light;
     if (node.kind != Node::Kind::Object) c.fail(node.line, path, "must be an object { \"type\": ... }, got " + describe(node));
-    const Member& typeMember = c.require(node, path, "type", " (directional, point or disk)");
+    const Member& typeMember = c.require(node, path, "type", " (directional, region, point or disk)");
     const std::string& type = c.string(typeMember.value, child(path, "type"));
     std::vector<std::string> allowed = {"type", "name", "spectrum", "power"};
     if (type == "directional") {
         light.type = LightSpec::Type::Directional;
         allowed.insert(allowed.end(), {"field_deg", "angular_diameter_deg"});
+    } else if (type == "region") {
+        light.type = LightSpec::Type::Directional;
+        allowed.insert(allowed.end(), {"points", "colours"});
     } else if (type == "point") {
         light.type = LightSpec::Type::Point;
         allowed.insert(allowed.end(), {"position_mm"});
@@ -58,7 +117,7 @@ LightSpec parseLight(const Checker& c, const Node& node, const std::string& path
         allowed.insert(allowed.end(), {"position_mm", "radius_mm"});
     } else {
         c.fail(typeMember.value.line, child(path, "type"),
-               "unknown light type \"" + type + "\" (directional, point or disk)");
+               "unknown light type \"" + type + "\" (directional, region, point or disk)");
     }
     c.object(node, path, allowed, " for a " + type + " light");
 
@@ -73,6 +132,10 @@ LightSpec parseLight(const Checker& c, const Node& node, const std::string& path
         light.power = c.numberIn(m->value, child(path, "power"), 0.0, 1e12, unit, true);
     }
 
+    if (type == "region") {
+        parseRegion(c, node, path, light);
+        return light;
+    }
     if (light.type == LightSpec::Type::Directional) {
         const Member& field = c.require(node, path, "field_deg", " ([x, y] in degrees)");
         const std::string fieldPath = child(path, "field_deg");

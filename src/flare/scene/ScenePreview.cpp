@@ -47,7 +47,10 @@ PreviewLight previewLight(const LightSpec& spec, int wavelengths) {
     light.spectrum = spectralQuadrature(toSpectrum(spec.spectrum), wavelengths);
     if (spec.type == LightSpec::Type::Directional) {
         light.irradiance = spec.power;
-        light.angularDiameterDeg = spec.angularDiameterDeg;
+        // A region light's points: a disk of its extent about its centre (the preview's direct image
+        // is a mesh of one direction; `flare composite` takes the real one from the plate).
+        light.angularDiameterDeg = spec.isRegion() ? 2.0 * spec.apparentRadiusRad() * 180.0 / std::numbers::pi
+                                                   : spec.angularDiameterDeg;
     } else {
         const double distanceM = glm::length(spec.positionMm) * 1e-3;
         light.irradiance = spec.power / (distanceM * distanceM);
@@ -83,6 +86,10 @@ ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGh
     std::optional<StarburstImage> starburst;
     tbb::task_group beside;
     beside.run([&] {
+        if (!budget.direct) {  // the caller has the lights' own image (flare composite: the plate)
+            directXyz.assign(3 * static_cast<size_t>(options.film.widthPx) * options.film.heightPx, 0.0f);
+            return;
+        }
         PreviewOptions direct;
         direct.widthPx = options.film.widthPx;
         direct.heightPx = options.film.heightPx;

@@ -44,6 +44,9 @@ struct PreviewBudget {
     std::optional<std::uint64_t> seed;  // default: the scene's render.seed
     bool higher = false;                // add the guided order-4 chains (the `higher` layer)
     LayerSelection ghostLayers;         // with per-ghost layers: which ghosts keep one (RenderOptions)
+    // The lights' own (direct) image, and from it the starburst; `flare composite` takes both from
+    // the plate instead and leaves them out (a full-frame mesh preview per light).
+    bool direct = true;
 };
 
 // Sensor irradiance in CIE XYZ (XyzLayer's layout), summed over the scene's lights.

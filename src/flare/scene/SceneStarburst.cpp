@@ -8,7 +8,7 @@
 namespace flare {
 
 StarburstImage sceneStarburst(const Scene& scene, const LensSystem& lens, const std::vector<float>& directXyz,
-                              int widthPx, int heightPx) {
+                              int widthPx, int heightPx, StarburstOptions options) {
     std::vector<StarburstLight> lights;
     for (const LightSpec& spec : scene.lights)
         lights.push_back({spec.name, spec.travelDirection(),
@@ -37,7 +37,7 @@ StarburstImage sceneStarburst(const Scene& scene, const LensSystem& lens, const 
         }
         dust.push_back({static_cast<int>(s), coverage, c.dustDiameterUm, c.dustDiameterSigma});
     }
-    return renderStarburst(lens, directXyz, widthPx, heightPx, lights, {}, dust);
+    return renderStarburst(lens, directXyz, widthPx, heightPx, lights, options, dust);
 }
 
 nlohmann::json starburstJson(const StarburstImage& image) {

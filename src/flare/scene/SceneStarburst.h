@@ -14,8 +14,9 @@
 namespace flare {
 
 // `directXyz`: the direct layer of the preview or the render (widthPx × heightPx × XYZ).
+// `options`: its crops and windows (the wavelengths are the scene's).
 StarburstImage sceneStarburst(const Scene& scene, const LensSystem& lens, const std::vector<float>& directXyz,
-                              int widthPx, int heightPx);
+                              int widthPx, int heightPx, StarburstOptions options = {});
 
 nlohmann::json starburstJson(const StarburstImage& image);
 

@@ -166,6 +166,48 @@ TEST(CompositeCli, LayersAddUpAndTheWrittenLightsRenderTheFlare) {
     for (size_t i = 0; i < ghost.rgb.size(); ++i) ASSERT_NEAR(again.rgb[i], ghost.rgb[i], 1e-5 * ghostLargest) << i;
 }
 
+// By default the source pixels become region lights: a two-coloured blob is one region light whose
+// points are its pixels in its two colours, a lone pixel a directional light; the scene written
+// with --lights-json reads back and renders (flare preview, the same seed and passes) the
+// composite's ghost layer.
+TEST(CompositeCli, RegionLightsAreWrittenAndRenderTheFlare) {
+    std::vector<Pixel> pixels;
+    for (int y = 30; y < 34; ++y)
+        for (int x = 60; x < 72; ++x)
+            pixels.push_back({x, y, x < 66 ? glm::dvec3(900.0, 500.0, 120.0) : glm::dvec3(150.0, 300.0, 800.0)});
+    pixels.push_back({200, 120, glm::dvec3(50.0, 80.0, 400.0)});
+    const std::string plate = writePlate("regions.exr", pixels, nullptr, glm::dvec3(0.02, 0.03, 0.05));
+    const std::string out = path("regions-out.exr"), lights = path("regions.json");
+    const test::CliRun r =
+        test::runCli("composite " + plate + " " + kLens + " -o " + out + " --lights-json " + lights + " --threshold 1");
+    ASSERT_EQ(r.exitCode, 0) << r.out;
+    EXPECT_NE(r.out.find("2 region lights of up to 2.5 deg"), std::string::npos) << r.out;
+    const nlohmann::json scene = readJson(lights);
+    ASSERT_EQ(scene["lights"].size(), 2u);
+    const nlohmann::json& blob = scene["lights"][0];  // the strongest first
+    EXPECT_EQ(blob["type"], "region");
+    EXPECT_EQ(blob["points"].size(), 48u);
+    EXPECT_EQ(blob["colours"].size(), 2u);
+    EXPECT_EQ(scene["lights"][1]["type"], "directional");
+
+    const ImageLayer composite = layer(out, ""), plateLayer = layer(out, "plate"), flare = layer(out, "flare"),
+                     ghost = layer(out, "ghost"), starburst = layer(out, "starburst");
+    double largest = 0.0;
+    for (float v : composite.rgb) largest = std::max(largest, std::abs(static_cast<double>(v)));
+    for (size_t i = 0; i < composite.rgb.size(); ++i) {
+        ASSERT_NEAR(composite.rgb[i] - plateLayer.rgb[i], flare.rgb[i], 1e-6 * largest) << i;
+        ASSERT_NEAR(flare.rgb[i], ghost.rgb[i] + starburst.rgb[i], 1e-6 * largest) << i;
+    }
+    const std::string rendered = path("regions-preview.exr");
+    const test::CliRun p = test::runCli("preview " + lights + " -o " + rendered + " --layers --quiet");
+    ASSERT_EQ(p.exitCode, 0) << p.out;
+    const ImageLayer again = layer(rendered, "ghost");
+    double ghostLargest = 0.0;
+    for (float v : ghost.rgb) ghostLargest = std::max(ghostLargest, std::abs(static_cast<double>(v)));
+    ASSERT_GT(ghostLargest, 0.0);
+    for (size_t i = 0; i < ghost.rgb.size(); ++i) ASSERT_NEAR(again.rgb[i], ghost.rgb[i], 1e-5 * ghostLargest) << i;
+}
+
 // Moving a blob by one pixel moves its light by one pixel's field angle and its flare with it: the
 // ghosts' centroid moves by more than four times what another seed alone moves it (the beams'
 // noise, measured).

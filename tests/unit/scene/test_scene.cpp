@@ -390,7 +390,7 @@ TEST(SceneErrors, GhostOrderIsTwoOrFour) {
 
 TEST(SceneErrors, UnknownLightTypeAndSpectrum) {
     expectError(scene("    \"type\": \"spot\",\n    \"field_deg\": [0, 0]"), 4,
-                {"lights[0].type: unknown light type \"spot\"", "directional, point or disk"});
+                {"lights[0].type: unknown light type \"spot\"", "directional, region, point or disk"});
     expectError(scene(kSun + ",\n    \"spectrum\": \"d50\""), 5, {"lights[0].spectrum: unknown spectrum \"d50\"", "equal_energy"});
     expectError(scene(kSun + ",\n    \"spectrum\": \"blackbody\""), 5, {"blackbody_k"});
     expectError(scene(kSun + ",\n    \"spectrum\": 5778"), 5, {"lights[0].spectrum: must be"});
