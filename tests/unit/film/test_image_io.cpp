@@ -300,6 +300,21 @@ TEST_F(ImageIOTest, HeaderTheCoreRefusesNeverReachesTheReader) {
     }
 }
 
+// A 440-byte file from the exr fuzz target: an attribute of type box2i declared 0 bytes long. The
+// C core skips it by its declared size and accepts the header; OpenEXR's C++ reader read 16 bytes
+// for it (a box2i's size), took a later string attribute's size from the wrong bytes and allocated
+// 1.9 GB. readExr now checks every attribute's declared size against what that reader reads.
+TEST_F(ImageIOTest, AttributeTheReaderReadsByItsTypeMustDeclareThatSize) {
+    const std::string file = std::string(FLARE_SOURCE_DIR) + "/tests/data/fuzz/exr/box2i-declared-empty.exr";
+    try {
+        readExr(file);
+        ADD_FAILURE() << "read";
+    } catch (const InputError& e) {
+        const std::string message = e.what();
+        EXPECT_NE(message.find("declares 0 bytes, but a box2i is 16"), std::string::npos) << message;
+    }
+}
+
 TEST_F(ImageIOTest, NonFiniteValuesAndMismatchedLayersAreRejected) {
     for (float bad : {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(),
                       -std::numeric_limits<float>::infinity()}) {
