@@ -339,9 +339,10 @@ std::vector<ImageLayer> readPart(Imf::MultiPartInputFile& file, int p, const std
 // Parses every header of `path` with OpenEXR's C core and throws its first complaint. The C++
 // reader (Imf) trusts a header's declared sizes as it goes: a channel list read past its declared
 // size puts the next attribute's size in the wrong bytes, and Imf allocates whatever that says
-// (1.6 GB for an 87-byte file found by the exr fuzz target). The core checks every attribute's
-// size against its type and the file's length, and the windows, tiles and chunk counts, before it
-// allocates; a file it refuses never reaches Imf.
+// (1.6 GB for an 87-byte file found by the exr fuzz target). The core reads each attribute by its
+// declared size, checks the sizes against the file's length and the channels, windows, tiles and
+// chunk counts before it allocates; a file it refuses never reaches Imf. (It does not check every
+// declared size against its type: checkAttributeSizes does.)
 void checkHeaders(const std::string& path) {
     static thread_local std::string firstComplaint;
     firstComplaint.clear();
