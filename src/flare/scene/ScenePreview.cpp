@@ -78,7 +78,7 @@ ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGh
     // pass) and the mesh preview's serial part, which otherwise delayed the writing. Each is
     // deterministic on its own, so the image is the same bits whatever runs beside it.
     std::vector<GhostReport> directReports;
-    for (size_t l = 0; l < scene.lights.size(); ++l) {
+    for (size_t l = 0; budget.direct && l < scene.lights.size(); ++l) {
         directReports.push_back(renderer.ghostReport(static_cast<int>(l)));
         for (GhostEstimate& g : directReports.back().ghosts) g.pruned = true;
     }
