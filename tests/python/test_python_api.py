@@ -103,6 +103,21 @@ class PythonApiTest(unittest.TestCase):
         with self.assertRaises(KeyError):
             result["no-such-layer"]
 
+    def test_scatter_splits_is_the_clis_scatter_splits(self):
+        photons = 2 * PHOTONS_PER_PASS
+        split_twice = flare.render(self.scene, photons=photons, seed=4, scatter_splits=2)
+        report_path = self.scratch_path("splits.json")
+        run_cli("render", self.scene_path, "-o", self.scratch_path("splits.exr"), "--photons", str(photons),
+                "--seed", "4", "--scatter-splits", "2", "--report", report_path, "--quiet")
+        with open(report_path, encoding="utf-8") as handle:
+            self.assertEqual(without_timings(split_twice.report), without_timings(json.load(handle)))
+        # The argument reaches the tracer: the default (8 directions) scatters the same light otherwise.
+        default = flare.render(self.scene, photons=photons, seed=4)
+        self.assertFalse(np.array_equal(split_twice["scatter"], default["scatter"]))
+        for refused in (0, 18):
+            with self.assertRaisesRegex(ValueError, r"scatter_splits: in \[1, 17\]"):
+                flare.render(self.scene, photons=1, scatter_splits=refused)
+
     def test_the_progress_callback_sees_every_pass_and_can_stop_the_render(self):
         seen = []
         result = flare.render(self.scene, photons=5 * PHOTONS_PER_PASS, seed=2, progress=seen.append)
