@@ -44,7 +44,7 @@ struct PreviewCommandOptions {
 // The preview's beams, bands and passes allocate and free buffers of a few hundred kilobytes to a few
 // megabytes, thousands of times in a second. glibc maps such blocks afresh (above its mmap
 // threshold) or hands a heap's free top back to the system (above its trim threshold), so the next
-// one is faulted in page by page again: a sixth of the preview's CPU was the kernel's, most of it
+// one is faulted in page by page again: about 15 % of the preview's CPU was the kernel's, most of it
 // page faults. Kept instead, freed memory serves the next allocation. (The output is the same
 // bits: nothing depends on where a block lies. Elsewhere than glibc, the allocator's own policy.)
 void keepFreedMemory() {
