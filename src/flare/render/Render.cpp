@@ -200,7 +200,8 @@ void Renderer::setUpFilm() {
     for (int l = kFixedLayerCount; l < static_cast<int>(layerNames_.size()); ++l)
         if (layerNames_[l].starts_with("ghost_")) film_.setLayerSinglePrecision(l);
     for (int l = 0; l < kFixedLayerCount; ++l) film_.addVarianceGroup({l});
-    film_.addVarianceGroup({kLayerGhost, kLayerHigher, kLayerScatter});
+    // (Without the flare group's sums, its index stays: kGroupFlare, no layers.)
+    film_.addVarianceGroup(options_.ghostGroupsOnly ? std::vector<int>{} : std::vector<int>{kLayerGhost, kLayerHigher, kLayerScatter});
     // Beams continue their sequences from pass to pass: the error is estimated from replicates.
     bool anyBeams = false;
     for (const renderer::LightState& light : lightStates_)
@@ -289,7 +290,7 @@ void Renderer::splatHitsInBand(int band, const std::vector<const renderer::Senso
     for (const renderer::SensorHit* hit : hits) {
         const glm::dvec2 p(hit->xMm, hit->yMm);
         const glm::dvec3 xyz(hit->xyz[0], hit->xyz[1], hit->xyz[2]);
-        film_.splatInBand(band, hit->layer, p, xyz);
+        film_.splatInBand(band, hit->layer, p, xyz, !options_.ghostGroupsOnly);
         if (hit->ghostLayer >= 0) film_.splatInBand(band, hit->ghostLayer, p, xyz, false);
     }
 }
@@ -323,8 +324,8 @@ void Renderer::rasteriseBeamsInBand(int band, const std::vector<renderer::BeamJo
         touched[target] = touched[target] || k > j;
         j = k;
     }
-    if (touched[0]) add(kLayerGhost, scratch[0].data(), true);
-    if (touched[1]) add(kLayerHigher, scratch[1].data(), true);
+    if (touched[0]) add(kLayerGhost, scratch[0].data(), !options_.ghostGroupsOnly);
+    if (touched[1]) add(kLayerHigher, scratch[1].data(), !options_.ghostGroupsOnly);
 }
 
 void Renderer::merge(const std::vector<renderer::BatchResult>& batches, const std::vector<renderer::BeamJob>& beams) {
@@ -423,6 +424,11 @@ double Renderer::tallyStandardErrorW(const PathTally& tally) const {
                      replicateVarianceOfMean(tally.replicateSums.data(), options_.beamReplicates, statistics_.passes));
 }
 
-double Renderer::estimatedRelativeError(int group) const { return film_.errorEstimate(group).relative(); }
+double Renderer::estimatedRelativeError(int group) const {
+    if (options_.ghostGroupsOnly && (group == kGroupTotal || group == kGroupFlare))
+        throw std::logic_error("Renderer::estimatedRelativeError: the film keeps no sums for group " + std::to_string(group) +
+                               " (RenderOptions::ghostGroupsOnly)");
+    return film_.errorEstimate(group).relative();
+}
 
 }  // namespace flare

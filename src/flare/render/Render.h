@@ -150,6 +150,14 @@ struct RenderOptions {
     // False: the passes trace the beams alone (the preview: the render's first passes without their
     // photons). The film's normalisation is the same, so the beams' image is the render's.
     bool tracePhotons = true;
+    // True (the preview, which reads the layers and the ghost group's error estimate alone): the
+    // film accumulates no running sums for the total and the flare groups (kGroupTotal,
+    // kGroupFlare). A beam's rows otherwise go to four stores of the frame's size (its layer, the
+    // total, the ghost and the flare groups), each summed per replicate at the end of a pass: two
+    // of them are the ghost layer's own sums again while the preview has nothing else.
+    // estimatedRelativeError refuses those two groups; every layer and the other groups are the
+    // same bits.
+    bool ghostGroupsOnly = false;
 
     std::int64_t photonsPerPass() const { return static_cast<std::int64_t>(batchPhotons) * batchesPerPass; }
 };

@@ -41,6 +41,8 @@ std::uint64_t Renderer::fingerprint() const {
                         options_.strayLightSampling ? 1 : 0, film_.replicates(), options_.tracePhotons ? 1 : 0,
                         options_.scatterSplits};
     mix(ints, sizeof ints);
+    // (Only when set, so that the checkpoints of renders keep their fingerprints.)
+    if (options_.ghostGroupsOnly) mix("ghost groups only", 17);
     for (const renderer::PhotonComponent& c : components_) {
         mix(&c.light, sizeof c.light);
         mix(&c.slot, sizeof c.slot);

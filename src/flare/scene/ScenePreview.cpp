@@ -69,6 +69,7 @@ ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGh
     if (budget.seed) overrides.seed = *budget.seed;
     RenderOptions options = sceneRenderOptions(scene, lens, overrides);
     options.tracePhotons = false;
+    options.ghostGroupsOnly = true;  // (the preview reads the layers and the ghost group's estimate)
     options.beamsPerPass = budget.beamsPerPass > 0 ? budget.beamsPerPass : std::max(16, options.beamsPerPass / 2);
     Renderer renderer(lens, scene.lights, options);
 

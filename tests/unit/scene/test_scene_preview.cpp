@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -68,6 +69,18 @@ TEST(ScenePreview, GhostLayerIsTheRendersBeams) {
     const ScenePreview preview = previewScene(scene, lens, false, budget);
     EXPECT_EQ(preview.passes, 3);
     EXPECT_EQ(preview.ghosts, beams.layerXyz(kLayerGhost));
+    // Its film keeps only the ghost group's sums (RenderOptions::ghostGroupsOnly): the same
+    // estimate, to the bit, as a film with every group; the groups it leaves out are refused.
+    ASSERT_GT(beams.estimatedRelativeError(kGroupGhost), 0.0);
+    EXPECT_EQ(preview.ghostEstimatedError, beams.estimatedRelativeError(kGroupGhost));
+    RenderOptions ghostGroups = beamsOnly;
+    ghostGroups.ghostGroupsOnly = true;
+    Renderer lean(lens, scene.lights, ghostGroups);
+    for (int pass = 0; pass < 3; ++pass) lean.runPass();
+    EXPECT_EQ(lean.layerXyz(kLayerGhost), beams.layerXyz(kLayerGhost));
+    EXPECT_EQ(lean.estimatedRelativeError(kGroupGhost), beams.estimatedRelativeError(kGroupGhost));
+    EXPECT_THROW(lean.estimatedRelativeError(kGroupTotal), std::logic_error);
+    EXPECT_THROW(lean.estimatedRelativeError(kGroupFlare), std::logic_error);
 
     // The default budget: two passes of half the render's beams (one render pass in all).
     RenderOptions half = beamsOnly;
