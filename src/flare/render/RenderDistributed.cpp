@@ -8,14 +8,18 @@
 //      and rays) to rank 0;
 //   2. each rank rasterises every beam over its own bands (the merge's largest part, nearly all
 //      of it with beams), rank 0 meanwhile its bands and every band's hits; the others send rank 0
-//      their bands' images as the merge would add them to the film (Renderer::rasteriseBeamsInBand);
+//      their bands' images as the merge would add them to the film (Renderer::rasteriseBeamsInBand)
+//      without waiting for rank 0 to take them (PassExchange::sendToRoot), and trace their share
+//      of the next pass at once;
 //   3. rank 0 adds them to the film in their bands, after the hits, as one process adds them,
 //      and ends the pass: the film, its error sums and the tallies stay rank 0's alone.
 // So every band receives the same additions in the same order as one process makes them: the
 // image is bitwise one process's, whatever the split of the jobs and of the bands, which may
-// therefore follow the measured costs: after every pass rank 0 chooses the next pass's share of
-// the jobs and split of the bands, and broadcasts them. The other ranks trace their share of the
-// next pass at once, while rank 0 adds the bands and ends the pass (docs/distributed.md).
+// therefore follow the measured costs: at every pass's exchange rank 0 broadcasts the next pass's
+// share of the jobs and split of the bands, chosen from the costs measured so far. The exchange is
+// the one point of a pass where the ranks wait for each other: rank 0 waits for the others' band
+// images only when its own bands are done first, and no other rank waits for rank 0 but at the
+// exchange (docs/distributed.md).
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -51,13 +55,15 @@ struct DistributedPasses {
     bool ahead = false;
     std::vector<BeamJob> beamJobs;
     double traceS = 0.0, traceCpuS = 0.0;
-    // What every rank knows of the pass to trace next: rank 0's share of the jobs (of kShareSteps)
-    // and the bands' owners (rank r owns bands [bandStart[r], bandStart[r + 1])).
-    int rootShare = 0;
-    std::vector<int> bandStart;
-    // Rank 0: the last pass's costs: its own trace (and how many jobs), the others' (their mean),
-    // and its adding the others' bands and ending the pass (mergeS); each band's rasterising (per
-    // thread of its owner) and each rank's time besides its bands in the band phase.
+    // What every rank knows of the current pass: rank 0's share of the jobs (of kShareSteps) and
+    // the bands' owners (rank r owns bands [bandStart[r], bandStart[r + 1])); and of the next pass
+    // (broadcast with the pass's exchange, so that the others trace the next pass at once).
+    int rootShare = 0, nextRootShare = 0;
+    std::vector<int> bandStart, nextBandStart;
+    // Rank 0: the costs measured so far: its own trace of this pass (and how many jobs); the
+    // others' of the last (their mean), and its adding the others' bands and ending the last pass
+    // (mergeS); each band's rasterising in the last pass (per thread of its owner) and each rank's
+    // time besides its bands in the band phase.
     double rootTraceS = 0.0, othersTraceS = 0.0, mergeS = -1.0;
     long rootJobs = 0, othersJobs = 0;
     std::vector<double> bandSeconds, besidesBandsS;
@@ -133,6 +139,8 @@ void Renderer::setExchange(PassExchange* exchange) {
     // pass to merge meanwhile), and the bands split by rows.
     distributed_->rootShare = kShareSteps / ranks;
     distributed_->bandStart = renderer::bandsByRows(film_.bandCount(), ranks);
+    distributed_->nextRootShare = distributed_->rootShare;
+    distributed_->nextBandStart = distributed_->bandStart;
 }
 
 void Renderer::runDistributedPass() {
@@ -201,14 +209,20 @@ void Renderer::runDistributedPass() {
         for (double& s : seconds) s /= threads;
         return seconds;
     };
-    // The next pass's share and bands, from rank 0 to every rank.
-    auto broadcastSplit = [&] {
-        std::vector<int> values(d.bandStart.begin(), d.bandStart.end());
-        values[0] = d.rootShare;  // (bandStart[0] is 0)
+    // The next pass's share and bands, from rank 0 to every rank, at the pass's exchange (where
+    // every rank meets anyway).
+    auto broadcastNextSplit = [&] {
+        std::vector<int> values(d.nextBandStart.begin(), d.nextBandStart.end());
+        values[0] = d.nextRootShare;  // (bandStart[0] is 0)
         exchange.broadcastFromRoot(values);
-        d.rootShare = values[0];
-        d.bandStart.assign(values.begin(), values.end());
-        d.bandStart[0] = 0;
+        d.nextRootShare = values[0];
+        d.nextBandStart.assign(values.begin(), values.end());
+        d.nextBandStart[0] = 0;
+    };
+    // The pass is over: the next pass's split is the current one.
+    auto advanceSplit = [&] {
+        d.rootShare = d.nextRootShare;
+        d.bandStart = d.nextBandStart;
     };
 
     if (rank != 0) {
@@ -229,6 +243,7 @@ void Renderer::runDistributedPass() {
         encodeShare(d.beamJobs);
         renderer::writeTraceTime(d.traceS + renderer::secondsSince(encodeStart),
                                  d.traceCpuS + renderer::cpuSeconds() - encodeCpuStart, d.outboxes[0]);
+        broadcastNextSplit();
         exchange.allToAll(d.outboxes, d.inbox);
         // The others' beams, cut to this rank's bands, beside its own; its bands' images to rank 0.
         const auto phaseStart = std::chrono::steady_clock::now();
@@ -242,12 +257,15 @@ void Renderer::runDistributedPass() {
             [&](int band, int i, int layer, const double* rows, bool inTotal) {
                 renderer::writeBandImage(band, layer, inTotal, rows, width, height, images[i]);
             });
+        exchange.finishSends();  // (the last pass's images: d.bandsOut is reused)
         d.bandsOut.clear();
         for (const std::vector<char>& image : images) d.bandsOut.insert(d.bandsOut.end(), image.begin(), image.end());
         renderer::writeBandCosts(first, seconds, renderer::secondsSince(phaseStart),
                                  renderer::cpuSeconds() - phaseCpuStart, d.bandsOut);
-        exchange.gatherAtRoot(d.bandsOut, d.bandsIn);
-        broadcastSplit();
+        // Without waiting for rank 0 to take them: the next pass needs nothing from rank 0 but
+        // its exchange.
+        exchange.sendToRoot(d.bandsOut);
+        advanceSplit();
         ++exchangeCosts_.passes;
         batchesDone_ += batches;
         ++statistics_.passes;
@@ -272,8 +290,14 @@ void Renderer::runDistributedPass() {
     exchangeCosts_.traceS += d.rootTraceS;
     exchangeCosts_.traceCpuS += renderer::cpuSeconds() - traceCpuStart;
 
-    // The others' results (their beams cut to rank 0's bands), while they receive rank 0's beams.
+    // The next pass's share and bands, from the costs measured so far (this pass's trace at rank
+    // 0, the last pass's elsewhere), which the others use as soon as their bands of this pass are
+    // done; then the others' results (their beams cut to rank 0's bands), while they receive
+    // rank 0's beams.
     const auto exchangeStart = std::chrono::steady_clock::now();
+    d.nextRootShare = renderer::balancedRootShare(d, jobs, ranks);
+    d.nextBandStart = d.bandSeconds.empty() ? d.bandStart : renderer::balancedBands(d.bandSeconds, d.besidesBandsS);
+    broadcastNextSplit();
     exchange.allToAll(d.outboxes, d.inbox);
     exchangeCosts_.gatherS += renderer::secondsSince(exchangeStart);
     const auto bandsStart = std::chrono::steady_clock::now();
@@ -314,7 +338,7 @@ void Renderer::runDistributedPass() {
     exchangeCosts_.rootBands += static_cast<double>(endOwn - firstOwn) / bandCount;
 
     const auto gatherStart = std::chrono::steady_clock::now();
-    exchange.gatherAtRoot({}, d.bandsIn);
+    exchange.receiveAtRoot(d.bandsIn);
     exchangeCosts_.gatherS += renderer::secondsSince(gatherStart);
     const auto mergeStart = std::chrono::steady_clock::now();
     const double mergeCpuStart = renderer::cpuSeconds();
@@ -347,10 +371,6 @@ void Renderer::runDistributedPass() {
     }
     exchangeCosts_.othersBandsS += othersBandsS / (ranks - 1);
     exchangeCosts_.othersBandsCpuS += othersBandsCpuS / (ranks - 1);
-    // The next pass's share and bands, which the others use as soon as they have them.
-    d.rootShare = renderer::balancedRootShare(d, jobs, ranks);
-    d.bandStart = renderer::balancedBands(d.bandSeconds, d.besidesBandsS);
-    broadcastSplit();
 
     tbb::parallel_for(tbb::blocked_range<int>(0, bandCount, 1), [&](const tbb::blocked_range<int>& range) {
         std::vector<double> rows;
@@ -365,6 +385,7 @@ void Renderer::runDistributedPass() {
     d.mergeS = renderer::secondsSince(mergeStart);
     exchangeCosts_.mergeS += d.mergeS;
     exchangeCosts_.mergeCpuS += renderer::cpuSeconds() - mergeCpuStart;
+    advanceSplit();
     ++exchangeCosts_.passes;
     batchesDone_ += batches;
     ++statistics_.passes;

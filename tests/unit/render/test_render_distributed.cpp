@@ -4,6 +4,9 @@
 // Runs in every build, with or without MPI (the CLI tests run the MPI transport itself).
 #include <algorithm>
 #include <barrier>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
 #include <cstdlib>
 #include <cstring>
 #include <memory>
@@ -23,22 +26,27 @@
 namespace flare {
 namespace {
 
-// R ranks in one process: a rank deposits its message, all meet, rank 0 takes every message, all
-// meet again (so that no rank's next message overwrites one rank 0 has not taken); an exchange of
-// messages between every pair and a broadcast likewise.
+// R ranks in one process: a message to rank 0 waits in its sender's queue until rank 0 takes it
+// (the sender goes on at once, as with MPI); an exchange of messages between every pair and a
+// broadcast: a rank deposits its messages, all meet, each takes its own, all meet again (so that
+// no rank's next message overwrites one not yet taken).
 class ThreadRanks {
 public:
-    explicit ThreadRanks(int size) : size_(size), slots_(size), meet_(size) {}
+    explicit ThreadRanks(int size) : size_(size), meet_(size) {}
     int size() const { return size_; }
-    void gather(int rank, const std::vector<char>& mine, std::vector<std::vector<char>>& all) {
-        slots_[rank] = mine;
-        meet_.arrive_and_wait();
-        if (rank == 0) {
-            all = std::move(slots_);
-            all[0].clear();
-            slots_.assign(size_, {});
+    void sendToRoot(int rank, const std::vector<char>& mine) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        queues_[rank].push_back(mine);
+        arrived_.notify_all();
+    }
+    void receiveAtRoot(std::vector<std::vector<char>>& all) {
+        all.assign(size_, {});
+        std::unique_lock<std::mutex> lock(mutex_);
+        for (int r = 1; r < size_; ++r) {
+            arrived_.wait(lock, [&] { return !queues_[r].empty(); });
+            all[r] = std::move(queues_[r].front());
+            queues_[r].pop_front();
         }
-        meet_.arrive_and_wait();
     }
     void allToAll(int rank, const std::vector<std::vector<char>>& out, std::vector<std::vector<char>>& in) {
         mail_[rank] = out;
@@ -64,7 +72,9 @@ public:
 
 private:
     int size_;
-    std::vector<std::vector<char>> slots_;
+    std::vector<std::deque<std::vector<char>>> queues_ = std::vector<std::deque<std::vector<char>>>(size_);
+    std::mutex mutex_;
+    std::condition_variable arrived_;
     std::vector<std::vector<std::vector<char>>> mail_ = std::vector<std::vector<std::vector<char>>>(size_);
     std::vector<int> values_;
     std::barrier<> meet_;
@@ -75,9 +85,9 @@ public:
     ThreadRank(ThreadRanks& ranks, int rank) : ranks_(ranks), rank_(rank) {}
     int rank() const override { return rank_; }
     int size() const override { return ranks_.size(); }
-    void gatherAtRoot(const std::vector<char>& mine, std::vector<std::vector<char>>& all) override {
-        ranks_.gather(rank_, mine, all);
-    }
+    void sendToRoot(const std::vector<char>& mine) override { ranks_.sendToRoot(rank_, mine); }
+    void receiveAtRoot(std::vector<std::vector<char>>& all) override { ranks_.receiveAtRoot(all); }
+    void finishSends() override {}
     void allToAll(const std::vector<std::vector<char>>& out, std::vector<std::vector<char>>& in) override {
         ranks_.allToAll(rank_, out, in);
     }
