@@ -65,6 +65,10 @@ struct DistributedPasses {
     // (mergeS); each band's rasterising in the last pass (per thread of its owner) and each rank's
     // time besides its bands in the band phase.
     double rootTraceS = 0.0, othersTraceS = 0.0, mergeS = -1.0;
+    // How much later than the others (their mean) rank 0 began adding the bands in the last pass:
+    // its band phase and waiting for theirs less their band phase, from the exchange on (where all
+    // meet), at least 0. Rank 0 has that much less time than they do before the next exchange.
+    double lagS = 0.0;
     long rootJobs = 0, othersJobs = 0;
     std::vector<double> bandSeconds, besidesBandsS;
 };
@@ -77,17 +81,17 @@ double secondsSince(std::chrono::steady_clock::time_point t) {
 // The process's CPU time (all its threads), s.
 double cpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
 
-// Rank 0's share (of kShareSteps) that balances the ranks between one pass's bands and the next
-// pass's exchange: rank 0 adding the others' bands and ending the pass in M and tracing s·W takes
-// as long as another rank tracing (1 − s)·W / (R − 1), W the whole pass's tracing on one rank,
-// estimated from the jobs' measured cost; at most an equal share, at least none. Before rank 0
-// has merged a pass (its cost unknown): half an equal share.
+// Rank 0's share (of kShareSteps) that balances the ranks between the others' bands and the next
+// pass's exchange: rank 0 beginning lagS later, adding the others' bands and ending the pass in M
+// and tracing s·W takes as long as another rank tracing (1 − s)·W / (R − 1), W the whole pass's
+// tracing on one rank, estimated from the jobs' measured cost; at most an equal share, at least
+// none. Before rank 0 has merged a pass (its cost unknown): half an equal share.
 int balancedRootShare(const DistributedPasses& d, long jobs, int ranks) {
     const double tracedS = d.rootTraceS + d.othersTraceS * (ranks - 1);
     const long traced = d.rootJobs + d.othersJobs * (ranks - 1);
     if (!(tracedS > 0.0) || traced <= 0 || !(d.mergeS >= 0.0)) return kShareSteps / (2 * ranks);
     const double wholeS = tracedS / static_cast<double>(traced) * static_cast<double>(jobs);
-    const double share = (wholeS - (ranks - 1) * d.mergeS) / (ranks * wholeS);
+    const double share = (wholeS - (ranks - 1) * (d.lagS + d.mergeS)) / (ranks * wholeS);
     return static_cast<int>(std::lround(std::clamp(share, 0.0, 1.0 / ranks) * kShareSteps));
 }
 
@@ -339,7 +343,8 @@ void Renderer::runDistributedPass() {
 
     const auto gatherStart = std::chrono::steady_clock::now();
     exchange.receiveAtRoot(d.bandsIn);
-    exchangeCosts_.gatherS += renderer::secondsSince(gatherStart);
+    const double bandsWaitS = renderer::secondsSince(gatherStart);
+    exchangeCosts_.bandsWaitS += bandsWaitS;
     const auto mergeStart = std::chrono::steady_clock::now();
     const double mergeCpuStart = renderer::cpuSeconds();
     // The bands' images, each band's in the order its owner made them; each rank's costs.
@@ -370,6 +375,7 @@ void Renderer::runDistributedPass() {
         othersBandsCpuS += message.phaseCpuS;
     }
     exchangeCosts_.othersBandsS += othersBandsS / (ranks - 1);
+    d.lagS = std::max(0.0, rootBandsS + bandsWaitS - othersBandsS / (ranks - 1));
     exchangeCosts_.othersBandsCpuS += othersBandsCpuS / (ranks - 1);
 
     tbb::parallel_for(tbb::blocked_range<int>(0, bandCount, 1), [&](const tbb::blocked_range<int>& range) {
