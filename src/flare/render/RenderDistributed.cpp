@@ -60,10 +60,10 @@ struct DistributedPasses {
     // (broadcast with the pass's exchange, so that the others trace the next pass at once).
     int rootShare = 0, nextRootShare = 0;
     std::vector<int> bandStart, nextBandStart;
-    // Rank 0: the costs measured so far: its own trace of this pass (and how many jobs); the
-    // others' of the last (their mean), and its adding the others' bands and ending the last pass
-    // (mergeS); each band's rasterising in the last pass (per thread of its owner) and each rank's
-    // time besides its bands in the band phase.
+    // Rank 0: the costs measured so far: its own last trace (and how many jobs: this pass's, or
+    // the last in which it had a share); the others' of the last pass (their mean), and its adding
+    // the others' bands and ending the last pass (mergeS); each band's rasterising in the last
+    // pass (per thread of its owner) and each rank's time besides its bands in the band phase.
     double rootTraceS = 0.0, othersTraceS = 0.0, mergeS = -1.0;
     // How much later than the others (their mean) rank 0 began adding the bands in the last pass:
     // its band phase and waiting for theirs less their band phase, from the exchange on (where all
@@ -83,15 +83,19 @@ double cpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC;
 
 // Rank 0's share (of kShareSteps) that balances the ranks between the others' bands and the next
 // pass's exchange: rank 0 beginning lagS later, adding the others' bands and ending the pass in M
-// and tracing s·W takes as long as another rank tracing (1 − s)·W / (R − 1), W the whole pass's
-// tracing on one rank, estimated from the jobs' measured cost; at most an equal share, at least
-// none. Before rank 0 has merged a pass (its cost unknown): half an equal share.
+// and tracing s·J jobs at its measured cost per job a₀ takes as long as another rank tracing
+// (1 − s)·J / (R − 1) at theirs, a₁: s = (J·a₁ / (R − 1) − lagS − M) / (J·(a₀ + a₁ / (R − 1))).
+// The costs per job differ (each rank encodes its beams for the other ranks' bands, rank 0 for
+// fewer of them). At most an equal share, at least none. Before rank 0 has merged a pass, or
+// before both costs are known: half an equal share.
 int balancedRootShare(const DistributedPasses& d, long jobs, int ranks) {
-    const double tracedS = d.rootTraceS + d.othersTraceS * (ranks - 1);
-    const long traced = d.rootJobs + d.othersJobs * (ranks - 1);
-    if (!(tracedS > 0.0) || traced <= 0 || !(d.mergeS >= 0.0)) return kShareSteps / (2 * ranks);
-    const double wholeS = tracedS / static_cast<double>(traced) * static_cast<double>(jobs);
-    const double share = (wholeS - (ranks - 1) * (d.lagS + d.mergeS)) / (ranks * wholeS);
+    if (d.rootJobs <= 0 || d.othersJobs <= 0 || !(d.rootTraceS > 0.0) || !(d.othersTraceS > 0.0) || !(d.mergeS >= 0.0) ||
+        jobs <= 0)
+        return kShareSteps / (2 * ranks);
+    const double rootPerJob = d.rootTraceS / static_cast<double>(d.rootJobs);
+    const double otherPerJob = d.othersTraceS / static_cast<double>(d.othersJobs) / (ranks - 1);
+    const double share = (static_cast<double>(jobs) * otherPerJob - d.lagS - d.mergeS) /
+                         (static_cast<double>(jobs) * (rootPerJob + otherPerJob));
     return static_cast<int>(std::lround(std::clamp(share, 0.0, 1.0 / ranks) * kShareSteps));
 }
 
@@ -289,9 +293,12 @@ void Renderer::runDistributedPass() {
     const double traceCpuStart = renderer::cpuSeconds();
     const long traced = traceShare(beamJobs, share);
     encodeShare(beamJobs);
-    d.rootTraceS = renderer::secondsSince(traceStart);
-    d.rootJobs = traced;
-    exchangeCosts_.traceS += d.rootTraceS;
+    const double rootTraceS = renderer::secondsSince(traceStart);
+    if (traced > 0) {  // (with no share, rank 0's cost per job is the last one measured)
+        d.rootTraceS = rootTraceS;
+        d.rootJobs = traced;
+    }
+    exchangeCosts_.traceS += rootTraceS;
     exchangeCosts_.traceCpuS += renderer::cpuSeconds() - traceCpuStart;
 
     // The next pass's share and bands, from the costs measured so far (this pass's trace at rank
