@@ -14,6 +14,8 @@
 // processes resumes with any other number.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <vector>
 
 namespace flare {
@@ -55,6 +57,20 @@ inline int jobRank(long job, int rootShare, int size) {
     const long rootBefore = job * rootShare / kShareSteps;  // rank 0's jobs among 0 .. job − 1
     if ((job + 1) * rootShare / kShareSteps > rootBefore) return 0;
     return 1 + static_cast<int>((job - rootBefore) % (size - 1));
+}
+
+// Rank 0's share (of kShareSteps, at most an equal one, at least none) that balances the ranks
+// from the others' bands to the next pass's exchange: rank 0 busy `rootFirstS` (its wait and its
+// end of the pass) and then tracing s·J jobs at `rootPerJobS` each takes as long as each other
+// rank tracing its (1 − s)·J / (R − 1) jobs at `otherPerJobS` each:
+// s = (J·a₁ / (R − 1) − rootFirstS) / (J·(a₀ + a₁ / (R − 1))), rounded to the nearest step, at
+// most ⌊kShareSteps / R⌋.
+inline int balancedShare(long jobs, int size, double rootPerJobS, double otherPerJobS, double rootFirstS) {
+    const double others = otherPerJobS / (size - 1);  // the others' time per job of the pass
+    const double share = (static_cast<double>(jobs) * others - rootFirstS) / (static_cast<double>(jobs) * (rootPerJobS + others));
+    // (Clamped in steps: an equal share rounded up would be more than equal, 11 of 64 for 6 ranks.)
+    const long steps = std::lround(std::max(share, 0.0) * kShareSteps);
+    return static_cast<int>(std::min<long>(steps, kShareSteps / size));
 }
 
 }  // namespace flare

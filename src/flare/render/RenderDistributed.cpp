@@ -81,22 +81,17 @@ double secondsSince(std::chrono::steady_clock::time_point t) {
 // The process's CPU time (all its threads), s.
 double cpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
 
-// Rank 0's share (of kShareSteps) that balances the ranks between the others' bands and the next
-// pass's exchange: rank 0 beginning lagS later, adding the others' bands and ending the pass in M
-// and tracing s·J jobs at its measured cost per job a₀ takes as long as another rank tracing
-// (1 − s)·J / (R − 1) at theirs, a₁: s = (J·a₁ / (R − 1) − lagS − M) / (J·(a₀ + a₁ / (R − 1))).
-// The costs per job differ (each rank encodes its beams for the other ranks' bands, rank 0 for
-// fewer of them). At most an equal share, at least none. Before rank 0 has merged a pass, or
-// before both costs are known: half an equal share.
+// Rank 0's share (of kShareSteps) from the measured costs (balancedShare): rank 0 begins adding the
+// others' bands lagS after them and ends the pass in mergeS; each side traces at its own measured
+// cost per job (they differ: each rank encodes its beams for the other ranks' bands, rank 0 for
+// fewer of them). Before rank 0 has merged a pass, or before both costs are known: half an equal
+// share.
 int balancedRootShare(const DistributedPasses& d, long jobs, int ranks) {
     if (d.rootJobs <= 0 || d.othersJobs <= 0 || !(d.rootTraceS > 0.0) || !(d.othersTraceS > 0.0) || !(d.mergeS >= 0.0) ||
         jobs <= 0)
         return kShareSteps / (2 * ranks);
-    const double rootPerJob = d.rootTraceS / static_cast<double>(d.rootJobs);
-    const double otherPerJob = d.othersTraceS / static_cast<double>(d.othersJobs) / (ranks - 1);
-    const double share = (static_cast<double>(jobs) * otherPerJob - d.lagS - d.mergeS) /
-                         (static_cast<double>(jobs) * (rootPerJob + otherPerJob));
-    return static_cast<int>(std::lround(std::clamp(share, 0.0, 1.0 / ranks) * kShareSteps));
+    return balancedShare(jobs, ranks, d.rootTraceS / static_cast<double>(d.rootJobs),
+                         d.othersTraceS / static_cast<double>(d.othersJobs), d.lagS + d.mergeS);
 }
 
 // The bands split by rows: rank r owns bands [⌊r·B/R⌋, ⌊(r + 1)·B/R⌋).
