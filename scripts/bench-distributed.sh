@@ -6,6 +6,8 @@
 # system, all processes, GNU time), the medians, the load average before and after, and the
 # 2-rank runs' per-pass costs as flare render prints them (wall / CPU s of each part).
 # Usage: scripts/bench-distributed.sh [build/src/flare] [repeats] [photons] [extra render options...]
+# With BASELINE=path/to/another/flare, its 2-rank runs join the rounds (ranks2-base), so that a
+# change is measured before and after under the same load.
 set -euo pipefail
 flare=${1:-build/src/flare}
 repeats=${2:-3}
@@ -23,6 +25,10 @@ declare -A runs=(
   [ranks2]="${mpirun[*]} -np 2 --bind-to core $flare render -o $out/x.exr --report $out/r.json --threads 1 ${common[*]}"
 )
 order=(threads1 threads2 ranks2)
+if [[ -n ${BASELINE:-} ]]; then
+  runs[ranks2-base]="${mpirun[*]} -np 2 --bind-to core $BASELINE render -o $out/x.exr --report $out/r.json --threads 1 ${common[*]}"
+  order+=(ranks2-base)
+fi
 echo "load before: $(uptime)"
 for ((i = 0; i < repeats; i++)); do
   for name in "${order[@]}"; do
@@ -43,14 +49,15 @@ python3 - "$out/times" <<'PY'
 import statistics, sys
 rows = [line.split() for line in open(sys.argv[1])]
 med = {}
-for name in ("threads1", "threads2", "ranks2"):
+names = [n for n in ("threads1", "threads2", "ranks2", "ranks2-base") if any(r[0] == n for r in rows)]
+for name in names:
     passes = [float(r[1]) for r in rows if r[0] == name]
     total = [float(r[2]) for r in rows if r[0] == name]
     cpu = [float(r[3]) for r in rows if r[0] == name]
     med[name] = (statistics.median(passes), statistics.median(total), statistics.median(cpu))
     print(f"{name:9s} passes {med[name][0]:7.2f} s   whole run {med[name][1]:7.2f} s   CPU {med[name][2]:7.2f} s"
           f"   (median of {len(passes)})")
-for name in ("threads2", "ranks2"):
+for name in names[1:]:
     print(f"speed-up of {name} over threads1: passes {med['threads1'][0] / med[name][0]:.2f}x, "
           f"whole run {med['threads1'][1] / med[name][1]:.2f}x")
 PY

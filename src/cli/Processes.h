@@ -25,7 +25,9 @@ public:
     int size() const override { return size_; }
     bool root() const { return rank_ == 0; }
 
-    void gatherAtRoot(const std::vector<char>& mine, std::vector<std::vector<char>>& all) override;
+    void sendToRoot(const std::vector<char>& mine) override;
+    void receiveAtRoot(std::vector<std::vector<char>>& all) override;
+    void finishSends() override;
     void allToAll(const std::vector<std::vector<char>>& out, std::vector<std::vector<char>>& in) override;
     int broadcastFromRoot(int value) override;
     void broadcastFromRoot(std::vector<int>& values) override;

@@ -21,7 +21,18 @@ bool startedByMpirun() {
 
 // Messages go in pieces of at most 1 GiB (MPI counts are ints).
 constexpr std::uint64_t kPieceBytes = std::uint64_t(1) << 30;
-constexpr int kGatherTag = 31, kAllToAllTag = 32;
+constexpr int kToRootTag = 31, kAllToAllTag = 32;
+
+// sendToRoot's message in flight: its size (sent first) and its pieces.
+struct Sending {
+    std::uint64_t bytes = 0;
+    std::vector<MPI_Request> requests;
+    void finish() {
+        if (!requests.empty()) MPI_Waitall(static_cast<int>(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
+        requests.clear();
+    }
+};
+Sending gSending;
 
 struct MpiSession {
     bool active = false;
@@ -34,6 +45,8 @@ struct MpiSession {
     }
     ~MpiSession() {
         int finalized = 0;
+        // (rank 0 has received everything sent to it: it receives each pass's messages in that pass.)
+        if (active && MPI_Finalized(&finalized) == MPI_SUCCESS && !finalized) gSending.finish();
         if (active && MPI_Finalized(&finalized) == MPI_SUCCESS && !finalized) MPI_Finalize();
     }
 };
@@ -53,24 +66,34 @@ Processes& Processes::world() {
     return world;
 }
 
-void Processes::gatherAtRoot(const std::vector<char>& mine, std::vector<std::vector<char>>& all) {
-    if (size_ == 1) return;
-    std::uint64_t bytes = mine.size();
-    std::vector<std::uint64_t> sizes(root() ? size_ : 0);
-    MPI_Gather(&bytes, 1, MPI_UINT64_T, sizes.data(), 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
-    if (!root()) {
-        for (std::uint64_t at = 0; at < bytes; at += kPieceBytes)
-            MPI_Send(mine.data() + at, static_cast<int>(std::min(kPieceBytes, bytes - at)), MPI_BYTE, 0, kGatherTag,
-                     MPI_COMM_WORLD);
-        return;
-    }
+void Processes::sendToRoot(const std::vector<char>& mine) {
+    if (size_ == 1 || root()) return;
+    gSending.finish();
+    gSending.bytes = mine.size();
+    // Nonblocking: the rank goes on with its work while rank 0 takes the message (with Open MPI's
+    // shared memory, rank 0 copies a large message out of this rank's memory itself, CMA).
+    MPI_Isend(&gSending.bytes, 1, MPI_UINT64_T, 0, kToRootTag, MPI_COMM_WORLD, &gSending.requests.emplace_back());
+    for (std::uint64_t at = 0; at < gSending.bytes; at += kPieceBytes)
+        MPI_Isend(mine.data() + at, static_cast<int>(std::min(kPieceBytes, gSending.bytes - at)), MPI_BYTE, 0,
+                  kToRootTag, MPI_COMM_WORLD, &gSending.requests.emplace_back());
+}
+
+void Processes::finishSends() {
+    if (size_ > 1) gSending.finish();
+}
+
+void Processes::receiveAtRoot(std::vector<std::vector<char>>& all) {
+    if (size_ == 1 || !root()) return;
     all.resize(size_);
     all[0].clear();
+    // (MPI keeps the order of messages between two ranks with one tag: the size, then its pieces.)
     for (int r = 1; r < size_; ++r) {
-        all[r].resize(sizes[r]);  // (within the capacity of the last pass's message, mostly)
-        for (std::uint64_t at = 0; at < sizes[r]; at += kPieceBytes)
-            MPI_Recv(all[r].data() + at, static_cast<int>(std::min(kPieceBytes, sizes[r] - at)), MPI_BYTE, r,
-                     kGatherTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        std::uint64_t bytes = 0;
+        MPI_Recv(&bytes, 1, MPI_UINT64_T, r, kToRootTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        all[r].resize(bytes);  // (within the capacity of the last pass's message, mostly)
+        for (std::uint64_t at = 0; at < bytes; at += kPieceBytes)
+            MPI_Recv(all[r].data() + at, static_cast<int>(std::min(kPieceBytes, bytes - at)), MPI_BYTE, r, kToRootTag,
+                     MPI_COMM_WORLD, MPI_STATUS_IGNORE);
     }
 }
 

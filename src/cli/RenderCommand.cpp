@@ -269,14 +269,14 @@ int run(const RenderCommandOptions& o) {
             const double perPass = c.passes > 0 ? 1.0 / c.passes : 0.0;
             std::fprintf(stderr,
                          "  %d ranks, per pass (wall s / CPU s): rank 0 traced %.0f%% of the jobs in %.3g / %.3g, each "
-                         "other rank traced and encoded its share in %.3g / %.3g; rank 0 waited for and received %.3g "
-                         "MB in %.3g, decoded the others' jobs, rasterised %.0f%% of the bands and splatted every hit "
+                         "other rank traced and encoded its share in %.3g / %.3g; rank 0 received %.3g MB, waited at "
+                         "the exchange %.3g, decoded the others' jobs, rasterised %.0f%% of the bands and splatted every hit "
                          "in %.3g / %.3g (%.3g besides its bands), each other rank decoded, rasterised and encoded its bands in %.3g / %.3g; rank 0 added their bands and "
-                         "ended the pass in %.3g / %.3g\n",
+                         "ended the pass in %.3g / %.3g, after waiting %.3g for their bands\n",
                          processes.size(), 100.0 * c.rootShare * perPass, c.traceS * perPass, c.traceCpuS * perPass,
                          c.othersTraceS * perPass, c.othersTraceCpuS * perPass, c.bytesReceived * perPass / 1e6,
                          c.gatherS * perPass, 100.0 * c.rootBands * perPass, c.bandsS * perPass,
-                         c.bandsCpuS * perPass, c.besidesBandsS * perPass, c.othersBandsS * perPass, c.othersBandsCpuS * perPass, c.mergeS * perPass, c.mergeCpuS * perPass);
+                         c.bandsCpuS * perPass, c.besidesBandsS * perPass, c.othersBandsS * perPass, c.othersBandsCpuS * perPass, c.mergeS * perPass, c.mergeCpuS * perPass, c.bandsWaitS * perPass);
         }
         for (const LightPlan& l : renderer.lights())
             if (l.skipped) std::fprintf(stderr, "  skipped light %s: %s\n", l.name.c_str(), l.skipReason.c_str());

@@ -251,7 +251,8 @@ struct RenderStatistics {
 // CPU time, all its threads; on a shared machine the wall time also counts other processes'):
 // rank 0's share of the jobs (summed) and its time tracing and encoding them; the other ranks'
 // time tracing and encoding theirs (their mean per pass, as they report it); rank 0's time
-// waiting for and receiving the others' results and their bands, and the bytes; rank 0's share
+// waiting for and receiving the others' results at the exchange (gatherS), and their bands after
+// its own (bandsWaitS), and the bytes; rank 0's share
 // of the bands (summed) and its time decoding the others' results, rasterising its bands and
 // splatting every band's hits (besidesBandsS: the decoding and the hits, wall); the others' time rasterising theirs (their mean, as they report
 // it); rank 0's time adding the others' bands and ending the pass. docs/scaling.md models renders
@@ -262,6 +263,7 @@ struct ExchangeCosts {
     double traceS = 0.0, traceCpuS = 0.0;
     double othersTraceS = 0.0, othersTraceCpuS = 0.0;
     double gatherS = 0.0, bytesReceived = 0.0;
+    double bandsWaitS = 0.0;  // rank 0 waiting for (and receiving) the others' band images
     double rootBands = 0.0, bandsS = 0.0, bandsCpuS = 0.0, besidesBandsS = 0.0, othersBandsS = 0.0, othersBandsCpuS = 0.0;
     double mergeS = 0.0, mergeCpuS = 0.0;
 };

@@ -8,14 +8,18 @@
 //      and rays) to rank 0;
 //   2. each rank rasterises every beam over its own bands (the merge's largest part, nearly all
 //      of it with beams), rank 0 meanwhile its bands and every band's hits; the others send rank 0
-//      their bands' images as the merge would add them to the film (Renderer::rasteriseBeamsInBand);
+//      their bands' images as the merge would add them to the film (Renderer::rasteriseBeamsInBand)
+//      without waiting for rank 0 to take them (PassExchange::sendToRoot), and trace their share
+//      of the next pass at once;
 //   3. rank 0 adds them to the film in their bands, after the hits, as one process adds them,
 //      and ends the pass: the film, its error sums and the tallies stay rank 0's alone.
 // So every band receives the same additions in the same order as one process makes them: the
 // image is bitwise one process's, whatever the split of the jobs and of the bands, which may
-// therefore follow the measured costs: after every pass rank 0 chooses the next pass's share of
-// the jobs and split of the bands, and broadcasts them. The other ranks trace their share of the
-// next pass at once, while rank 0 adds the bands and ends the pass (docs/distributed.md).
+// therefore follow the measured costs: at every pass's exchange rank 0 broadcasts the next pass's
+// share of the jobs and split of the bands, chosen from the costs measured so far. The exchange is
+// the one point of a pass where the ranks wait for each other: rank 0 waits for the others' band
+// images only when its own bands are done first, and no other rank waits for rank 0 but at the
+// exchange (docs/distributed.md).
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -51,14 +55,20 @@ struct DistributedPasses {
     bool ahead = false;
     std::vector<BeamJob> beamJobs;
     double traceS = 0.0, traceCpuS = 0.0;
-    // What every rank knows of the pass to trace next: rank 0's share of the jobs (of kShareSteps)
-    // and the bands' owners (rank r owns bands [bandStart[r], bandStart[r + 1])).
-    int rootShare = 0;
-    std::vector<int> bandStart;
-    // Rank 0: the last pass's costs: its own trace (and how many jobs), the others' (their mean),
-    // and its adding the others' bands and ending the pass (mergeS); each band's rasterising (per
-    // thread of its owner) and each rank's time besides its bands in the band phase.
+    // What every rank knows of the current pass: rank 0's share of the jobs (of kShareSteps) and
+    // the bands' owners (rank r owns bands [bandStart[r], bandStart[r + 1])); and of the next pass
+    // (broadcast with the pass's exchange, so that the others trace the next pass at once).
+    int rootShare = 0, nextRootShare = 0;
+    std::vector<int> bandStart, nextBandStart;
+    // Rank 0: the costs measured so far: its own last trace (and how many jobs: this pass's, or
+    // the last in which it had a share); the others' of the last pass (their mean), and its adding
+    // the others' bands and ending the last pass (mergeS); each band's rasterising in the last
+    // pass (per thread of its owner) and each rank's time besides its bands in the band phase.
     double rootTraceS = 0.0, othersTraceS = 0.0, mergeS = -1.0;
+    // How much later than the others (their mean) rank 0 began adding the bands in the last pass:
+    // its band phase and waiting for theirs less their band phase, from the exchange on (where all
+    // meet), at least 0. Rank 0 has that much less time than they do before the next exchange.
+    double lagS = 0.0;
     long rootJobs = 0, othersJobs = 0;
     std::vector<double> bandSeconds, besidesBandsS;
 };
@@ -71,18 +81,17 @@ double secondsSince(std::chrono::steady_clock::time_point t) {
 // The process's CPU time (all its threads), s.
 double cpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
 
-// Rank 0's share (of kShareSteps) that balances the ranks between one pass's bands and the next
-// pass's exchange: rank 0 adding the others' bands and ending the pass in M and tracing s·W takes
-// as long as another rank tracing (1 − s)·W / (R − 1), W the whole pass's tracing on one rank,
-// estimated from the jobs' measured cost; at most an equal share, at least none. Before rank 0
-// has merged a pass (its cost unknown): half an equal share.
+// Rank 0's share (of kShareSteps) from the measured costs (balancedShare): rank 0 begins adding the
+// others' bands lagS after them and ends the pass in mergeS; each side traces at its own measured
+// cost per job (they differ: each rank encodes its beams for the other ranks' bands, rank 0 for
+// fewer of them). Before rank 0 has merged a pass, or before both costs are known: half an equal
+// share.
 int balancedRootShare(const DistributedPasses& d, long jobs, int ranks) {
-    const double tracedS = d.rootTraceS + d.othersTraceS * (ranks - 1);
-    const long traced = d.rootJobs + d.othersJobs * (ranks - 1);
-    if (!(tracedS > 0.0) || traced <= 0 || !(d.mergeS >= 0.0)) return kShareSteps / (2 * ranks);
-    const double wholeS = tracedS / static_cast<double>(traced) * static_cast<double>(jobs);
-    const double share = (wholeS - (ranks - 1) * d.mergeS) / (ranks * wholeS);
-    return static_cast<int>(std::lround(std::clamp(share, 0.0, 1.0 / ranks) * kShareSteps));
+    if (d.rootJobs <= 0 || d.othersJobs <= 0 || !(d.rootTraceS > 0.0) || !(d.othersTraceS > 0.0) || !(d.mergeS >= 0.0) ||
+        jobs <= 0)
+        return kShareSteps / (2 * ranks);
+    return balancedShare(jobs, ranks, d.rootTraceS / static_cast<double>(d.rootJobs),
+                         d.othersTraceS / static_cast<double>(d.othersJobs), d.lagS + d.mergeS);
 }
 
 // The bands split by rows: rank r owns bands [⌊r·B/R⌋, ⌊(r + 1)·B/R⌋).
@@ -133,6 +142,8 @@ void Renderer::setExchange(PassExchange* exchange) {
     // pass to merge meanwhile), and the bands split by rows.
     distributed_->rootShare = kShareSteps / ranks;
     distributed_->bandStart = renderer::bandsByRows(film_.bandCount(), ranks);
+    distributed_->nextRootShare = distributed_->rootShare;
+    distributed_->nextBandStart = distributed_->bandStart;
 }
 
 void Renderer::runDistributedPass() {
@@ -201,14 +212,20 @@ void Renderer::runDistributedPass() {
         for (double& s : seconds) s /= threads;
         return seconds;
     };
-    // The next pass's share and bands, from rank 0 to every rank.
-    auto broadcastSplit = [&] {
-        std::vector<int> values(d.bandStart.begin(), d.bandStart.end());
-        values[0] = d.rootShare;  // (bandStart[0] is 0)
+    // The next pass's share and bands, from rank 0 to every rank, at the pass's exchange (where
+    // every rank meets anyway).
+    auto broadcastNextSplit = [&] {
+        std::vector<int> values(d.nextBandStart.begin(), d.nextBandStart.end());
+        values[0] = d.nextRootShare;  // (bandStart[0] is 0)
         exchange.broadcastFromRoot(values);
-        d.rootShare = values[0];
-        d.bandStart.assign(values.begin(), values.end());
-        d.bandStart[0] = 0;
+        d.nextRootShare = values[0];
+        d.nextBandStart.assign(values.begin(), values.end());
+        d.nextBandStart[0] = 0;
+    };
+    // The pass is over: the next pass's split is the current one.
+    auto advanceSplit = [&] {
+        d.rootShare = d.nextRootShare;
+        d.bandStart = d.nextBandStart;
     };
 
     if (rank != 0) {
@@ -229,6 +246,7 @@ void Renderer::runDistributedPass() {
         encodeShare(d.beamJobs);
         renderer::writeTraceTime(d.traceS + renderer::secondsSince(encodeStart),
                                  d.traceCpuS + renderer::cpuSeconds() - encodeCpuStart, d.outboxes[0]);
+        broadcastNextSplit();
         exchange.allToAll(d.outboxes, d.inbox);
         // The others' beams, cut to this rank's bands, beside its own; its bands' images to rank 0.
         const auto phaseStart = std::chrono::steady_clock::now();
@@ -242,12 +260,15 @@ void Renderer::runDistributedPass() {
             [&](int band, int i, int layer, const double* rows, bool inTotal) {
                 renderer::writeBandImage(band, layer, inTotal, rows, width, height, images[i]);
             });
+        exchange.finishSends();  // (the last pass's images: d.bandsOut is reused)
         d.bandsOut.clear();
         for (const std::vector<char>& image : images) d.bandsOut.insert(d.bandsOut.end(), image.begin(), image.end());
         renderer::writeBandCosts(first, seconds, renderer::secondsSince(phaseStart),
                                  renderer::cpuSeconds() - phaseCpuStart, d.bandsOut);
-        exchange.gatherAtRoot(d.bandsOut, d.bandsIn);
-        broadcastSplit();
+        // Without waiting for rank 0 to take them: the next pass needs nothing from rank 0 but
+        // its exchange.
+        exchange.sendToRoot(d.bandsOut);
+        advanceSplit();
         ++exchangeCosts_.passes;
         batchesDone_ += batches;
         ++statistics_.passes;
@@ -267,13 +288,22 @@ void Renderer::runDistributedPass() {
     const double traceCpuStart = renderer::cpuSeconds();
     const long traced = traceShare(beamJobs, share);
     encodeShare(beamJobs);
-    d.rootTraceS = renderer::secondsSince(traceStart);
-    d.rootJobs = traced;
-    exchangeCosts_.traceS += d.rootTraceS;
+    const double rootTraceS = renderer::secondsSince(traceStart);
+    if (traced > 0) {  // (with no share, rank 0's cost per job is the last one measured)
+        d.rootTraceS = rootTraceS;
+        d.rootJobs = traced;
+    }
+    exchangeCosts_.traceS += rootTraceS;
     exchangeCosts_.traceCpuS += renderer::cpuSeconds() - traceCpuStart;
 
-    // The others' results (their beams cut to rank 0's bands), while they receive rank 0's beams.
+    // The next pass's share and bands, from the costs measured so far (this pass's trace at rank
+    // 0, the last pass's elsewhere), which the others use as soon as their bands of this pass are
+    // done; then the others' results (their beams cut to rank 0's bands), while they receive
+    // rank 0's beams.
     const auto exchangeStart = std::chrono::steady_clock::now();
+    d.nextRootShare = renderer::balancedRootShare(d, jobs, ranks);
+    d.nextBandStart = d.bandSeconds.empty() ? d.bandStart : renderer::balancedBands(d.bandSeconds, d.besidesBandsS);
+    broadcastNextSplit();
     exchange.allToAll(d.outboxes, d.inbox);
     exchangeCosts_.gatherS += renderer::secondsSince(exchangeStart);
     const auto bandsStart = std::chrono::steady_clock::now();
@@ -314,8 +344,9 @@ void Renderer::runDistributedPass() {
     exchangeCosts_.rootBands += static_cast<double>(endOwn - firstOwn) / bandCount;
 
     const auto gatherStart = std::chrono::steady_clock::now();
-    exchange.gatherAtRoot({}, d.bandsIn);
-    exchangeCosts_.gatherS += renderer::secondsSince(gatherStart);
+    exchange.receiveAtRoot(d.bandsIn);
+    const double bandsWaitS = renderer::secondsSince(gatherStart);
+    exchangeCosts_.bandsWaitS += bandsWaitS;
     const auto mergeStart = std::chrono::steady_clock::now();
     const double mergeCpuStart = renderer::cpuSeconds();
     // The bands' images, each band's in the order its owner made them; each rank's costs.
@@ -346,11 +377,8 @@ void Renderer::runDistributedPass() {
         othersBandsCpuS += message.phaseCpuS;
     }
     exchangeCosts_.othersBandsS += othersBandsS / (ranks - 1);
+    d.lagS = std::max(0.0, rootBandsS + bandsWaitS - othersBandsS / (ranks - 1));
     exchangeCosts_.othersBandsCpuS += othersBandsCpuS / (ranks - 1);
-    // The next pass's share and bands, which the others use as soon as they have them.
-    d.rootShare = renderer::balancedRootShare(d, jobs, ranks);
-    d.bandStart = renderer::balancedBands(d.bandSeconds, d.besidesBandsS);
-    broadcastSplit();
 
     tbb::parallel_for(tbb::blocked_range<int>(0, bandCount, 1), [&](const tbb::blocked_range<int>& range) {
         std::vector<double> rows;
@@ -365,6 +393,7 @@ void Renderer::runDistributedPass() {
     d.mergeS = renderer::secondsSince(mergeStart);
     exchangeCosts_.mergeS += d.mergeS;
     exchangeCosts_.mergeCpuS += renderer::cpuSeconds() - mergeCpuStart;
+    advanceSplit();
     ++exchangeCosts_.passes;
     batchesDone_ += batches;
     ++statistics_.passes;

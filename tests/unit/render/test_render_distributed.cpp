@@ -4,12 +4,17 @@
 // Runs in every build, with or without MPI (the CLI tests run the MPI transport itself).
 #include <algorithm>
 #include <barrier>
+#include <cmath>
+#include <condition_variable>
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <deque>
 #include <memory>
+#include <mutex>
 #include <string>
-#include <utility>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -23,22 +28,27 @@
 namespace flare {
 namespace {
 
-// R ranks in one process: a rank deposits its message, all meet, rank 0 takes every message, all
-// meet again (so that no rank's next message overwrites one rank 0 has not taken); an exchange of
-// messages between every pair and a broadcast likewise.
+// R ranks in one process: a message to rank 0 waits in its sender's queue until rank 0 takes it
+// (the sender goes on at once, as with MPI); an exchange of messages between every pair and a
+// broadcast: a rank deposits its messages, all meet, each takes its own, all meet again (so that
+// no rank's next message overwrites one not yet taken).
 class ThreadRanks {
 public:
-    explicit ThreadRanks(int size) : size_(size), slots_(size), meet_(size) {}
+    explicit ThreadRanks(int size) : size_(size), meet_(size) {}
     int size() const { return size_; }
-    void gather(int rank, const std::vector<char>& mine, std::vector<std::vector<char>>& all) {
-        slots_[rank] = mine;
-        meet_.arrive_and_wait();
-        if (rank == 0) {
-            all = std::move(slots_);
-            all[0].clear();
-            slots_.assign(size_, {});
+    void sendToRoot(int rank, const std::vector<char>& mine) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        queues_[rank].push_back(mine);
+        arrived_.notify_all();
+    }
+    void receiveAtRoot(std::vector<std::vector<char>>& all) {
+        all.assign(size_, {});
+        std::unique_lock<std::mutex> lock(mutex_);
+        for (int r = 1; r < size_; ++r) {
+            arrived_.wait(lock, [&] { return !queues_[r].empty(); });
+            all[r] = std::move(queues_[r].front());
+            queues_[r].pop_front();
         }
-        meet_.arrive_and_wait();
     }
     void allToAll(int rank, const std::vector<std::vector<char>>& out, std::vector<std::vector<char>>& in) {
         mail_[rank] = out;
@@ -64,7 +74,9 @@ public:
 
 private:
     int size_;
-    std::vector<std::vector<char>> slots_;
+    std::vector<std::deque<std::vector<char>>> queues_ = std::vector<std::deque<std::vector<char>>>(size_);
+    std::mutex mutex_;
+    std::condition_variable arrived_;
     std::vector<std::vector<std::vector<char>>> mail_ = std::vector<std::vector<std::vector<char>>>(size_);
     std::vector<int> values_;
     std::barrier<> meet_;
@@ -75,9 +87,9 @@ public:
     ThreadRank(ThreadRanks& ranks, int rank) : ranks_(ranks), rank_(rank) {}
     int rank() const override { return rank_; }
     int size() const override { return ranks_.size(); }
-    void gatherAtRoot(const std::vector<char>& mine, std::vector<std::vector<char>>& all) override {
-        ranks_.gather(rank_, mine, all);
-    }
+    void sendToRoot(const std::vector<char>& mine) override { ranks_.sendToRoot(rank_, mine); }
+    void receiveAtRoot(std::vector<std::vector<char>>& all) override { ranks_.receiveAtRoot(all); }
+    void finishSends() override {}
     void allToAll(const std::vector<std::vector<char>>& out, std::vector<std::vector<char>>& in) override {
         ranks_.allToAll(rank_, out, in);
     }
@@ -176,6 +188,42 @@ TEST(RenderDistributed, EveryJobHasOneRankAndRankZeroItsShare) {
                 EXPECT_LE(std::abs(2 * rootInFirstHalf - count[0]), 2) << size << " " << share << " " << jobs;
             }
     EXPECT_EQ(jobRank(5, 0, 1), 0);
+}
+
+// Rank 0's share balances its time to the next exchange with each other rank's: to within half a
+// step of the share (the rounding), unless the balance lies outside [0, an equal share].
+TEST(RenderDistributed, RankZerosShareBalancesItsTimeWithEachOtherRanks) {
+    // Equal costs and nothing else to do: an equal share; a merge of 0.2 s with 2 ranks of 1 ms
+    // per job, 1000 jobs: 0.2 + s = 1 − s, s = 0.4 (25.6 steps).
+    EXPECT_EQ(balancedShare(1000, 2, 1e-3, 1e-3, 0.0), kShareSteps / 2);
+    EXPECT_EQ(balancedShare(1000, 2, 1e-3, 1e-3, 0.2), 26);
+    EXPECT_EQ(balancedShare(1000, 2, 1e-3, 1e-3, 5.0), 0);  // a merge longer than the pass: none
+    EXPECT_EQ(balancedShare(1000, 4, 1e-4, 1e-3, 0.0), kShareSteps / 4);  // cheaper jobs: at most equal
+    std::uint64_t state = 12345;
+    auto uniform = [&](double lo, double hi) {
+        state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+        return lo + (hi - lo) * static_cast<double>(state >> 11) * 0x1.0p-53;
+    };
+    for (int trial = 0; trial < 2000; ++trial) {
+        const int size = 2 + trial % 7;
+        const long jobs = 10 + static_cast<long>(uniform(0.0, 5000.0));
+        const double rootPerJob = uniform(1e-4, 2e-3), otherPerJob = uniform(1e-4, 2e-3);
+        const double rootFirst = uniform(0.0, 0.5 * jobs * otherPerJob / (size - 1));
+        const int steps = balancedShare(jobs, size, rootPerJob, otherPerJob, rootFirst);
+        ASSERT_GE(steps, 0);
+        ASSERT_LE(steps, kShareSteps / size);
+        const double s = static_cast<double>(steps) / kShareSteps;
+        const double root = rootFirst + s * jobs * rootPerJob;
+        const double other = (1.0 - s) * jobs * otherPerJob / (size - 1);
+        // Half a step of the share moves the difference by half a step's jobs at both costs.
+        const double halfStep = 0.5 / kShareSteps * jobs * (rootPerJob + otherPerJob / (size - 1));
+        if (steps > 0 && steps < kShareSteps / size)
+            EXPECT_LE(std::abs(root - other), halfStep * (1 + 1e-9)) << trial;
+        else if (steps == 0)
+            EXPECT_GE(root + halfStep * (1 + 1e-9), other) << trial;  // even none leaves rank 0 the longer
+        else
+            EXPECT_LE(root, other + halfStep * (1 + 1e-9)) << trial;  // an equal share leaves rank 0 the shorter
+    }
 }
 
 }  // namespace
