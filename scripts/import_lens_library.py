@@ -215,10 +215,18 @@ MIN_GLASS_EDGE_MM = 0.3
 MAX_RIM_TO_RADIUS = 0.98
 
 
-def sag(radius, r):
-    if radius == 0.0:
-        return 0.0
-    return radius - (1.0 if radius > 0 else -1.0) * (radius * radius - r * r) ** 0.5
+def sag(radius, r, asph=None):
+    """The sag at height r of a sphere of this radius (0: a plane), or with asph ({"k": conic, "A4":
+    ..., "A16": ...}) of the even asphere docs/lens-format.md defines on it."""
+    if not asph:
+        if radius == 0.0:
+            return 0.0
+        return radius - (1.0 if radius > 0 else -1.0) * (radius * radius - r * r) ** 0.5
+    z = 0.0
+    if radius != 0.0:
+        c = 1.0 / radius
+        z = c * r * r / (1.0 + (1.0 - (1.0 + asph.get("k", 0.0)) * c * c * r * r) ** 0.5)
+    return z + sum(value * r ** int(key[1:]) for key, value in asph.items() if key != "k")
 
 
 def fit_apertures(lens):
@@ -250,17 +258,20 @@ def fit_apertures(lens):
 
 
 def cut_pass(rows, semi):
-    """One pass of fit_apertures over every gap; True if a radius was cut."""
+    """One pass of fit_apertures over every gap; True if a radius was cut. A row may carry `asph`
+    (its surface's aspheric terms, for sag) and `min_edge_mm` (the edge its gap keeps, instead of
+    the minimum above: scripts/patent_zooms.py's hybrid resin layers)."""
     changed = False
     for i in range(len(rows) - 1):
         a, b = rows[i], rows[i + 1]
         t = a["thickness"]
         glass = a["nd"] > 1.001
-        margin = min(MIN_GLASS_EDGE_MM if glass else MIN_AIR_EDGE_MM, 0.5 * t)
+        margin = a.get("min_edge_mm", min(MIN_GLASS_EDGE_MM if glass else MIN_AIR_EDGE_MM, 0.5 * t))
         reach = max(semi[i], semi[i + 1])
         # The largest radius out to which the gap stays at least `margin` (64 steps, then bisection).
         def gap(r):
-            return t + sag(b["radius"], min(r, semi[i + 1])) - sag(a["radius"], min(r, semi[i]))
+            return (t + sag(b["radius"], min(r, semi[i + 1]), b.get("asph")) -
+                    sag(a["radius"], min(r, semi[i]), a.get("asph")))
         if min(gap(reach * k / 64.0) for k in range(65)) >= margin:
             continue
         lo, hi = 0.0, reach

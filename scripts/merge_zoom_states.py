@@ -296,6 +296,18 @@ F_NUMBER_OVERRIDES = {
         [3.608, 4.56],
         "the patent's F-numbers 3.608 / 4.56 (US 5,249,079 Table 4, as LensVisualizer's file quotes them; its "
         "nominalFno 3.611 / 4.557 is its fixed-stop model's), the file keeping its f/3.6 at wide"),
+    # The patents' F-numbers that LensVisualizer's analysis files quote (src/lens-data/<maker>/*.analysis.md),
+    # beside the fixed-stop model's nominalFno of the data file.
+    "tamron-14-150mm-f3.5-5.8-di-iii": (
+        [3.6708, 5.4085, 5.9148],
+        "the patent's F-numbers 3.6708 / 5.4085 / 5.9148 at 14.43 / 57.85 / 145.40 mm (US 2014/0347522 Example 3, "
+        "Tables 9-12, as LensVisualizer's analysis of the example quotes them; its nominalFno 3.691 / 5.388 / 5.905 "
+        "is its single fixed-stop fit to them and is not used)"),
+    "tamron-sp-150-600mm-f5-6.3-di-vc-usd": (
+        [4.99224, 5.87742, 6.53711],
+        "the patent's F-numbers 4.99224 / 5.87742 / 6.53711 at 152.16 / 297.49 / 582.52 mm (US 10,545,321 B2 "
+        "Example 4, Table 11, as LensVisualizer's analysis of the example quotes them; its nominalFno 4.994 / "
+        "5.872 / 6.541 is its normalised fixed-stop model's and is not used)"),
 }
 
 
@@ -305,10 +317,6 @@ F_NUMBER_OVERRIDES = {
 MODELLED_F_NUMBERS = {
     "fujifilm-fujinon-7.1-28.4mm-f2.0-2.8-super-ebc-x10": "JP patent Table 3's rounded f-numbers are replaced by "
                                                           "LensVisualizer's model (nominalFno 2.064 / 2.357 / 2.875)",
-    "tamron-14-150mm-f3.5-5.8-di-iii": "US 2014/0347522 Example 3: LensVisualizer's nominalFno (3.65 / 5.388 / 5.905) "
-                                       "is its single fixed-stop fit to the patent's F-numbers, not the patent's",
-    "tamron-sp-150-600mm-f5-6.3-di-vc-usd": "US 10,545,321 B2 Example 4: LensVisualizer's nominalFno (4.994 / 5.872 / "
-                                            "6.541) is its normalised fixed-stop model's, not the patent's",
     "canon-ef-s55-250mm-f4-5.6-is": "US 7,471,462 Example 2: LensVisualizer's nominalFno at mid (5.1291...) is its "
                                     "model's, and the patent's F-number there is quoted in neither source",
 }

@@ -22,6 +22,10 @@ the patent's focal length, the stop, the axial ray fan) and written only if all 
 A table of lenses/zoom-tables/ (one LensVisualizer added after the snapshot in LENSVISUALIZER.git)
 is read instead of the git folder's file of the same path (table_text).
 
+Aspheres are base spheres, but where SPECS asks for them (`aspheres`) the patent's coefficients are
+written on their rows: a hybrid asphere's moulded resin layer keeps a positive thickness only with
+its asphere, and such a layer is cut only where it thins to RESIN_LAYER_MIN_EDGE_MM (resin_layer).
+
 Usage:  /usr/bin/python3 scripts/patent_zooms.py lenses/library LENSVISUALIZER.git build/src/flare
 """
 
@@ -33,6 +37,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import textwrap
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import import_lens_library as imp  # noqa: E402  (cut_pass, the check runner)
@@ -73,12 +78,11 @@ SPECS = [
         "f_number_source": "the patent's f/4.1 at 17.50 / 35.00 / 67.89 mm (as LensVisualizer's header quotes it)",
         "sensor_mm": (23.5, 15.6),
         "format": "Pentax APS-C",
-        # Why it fails: the hybrid-aspheric resin layer on surface 28 (0.1 mm on the axis, radius -7107 mm
-        # on a -206 mm glass surface) becomes a negative thickness 6.5 mm off the axis once its asphere is
-        # a base sphere, so its clear radius is cut below the f/4.1 beam (as in the collection's file).
-        "why": "the hybrid-aspheric resin layer behind surface 28 crosses the glass it sits on 6.5 mm off the axis "
-               "as base spheres (the patent's aspheric coefficients are not modelled), so its clear radius is cut "
-               "below the f/4.1 beam",
+        # The hybrid-aspheric resin layer on surface 28 (0.1 mm on the axis, radius -7107 mm on a -206 mm
+        # glass surface) crosses the glass 6.5 mm off the axis as base spheres: with the patent's
+        # aspheric coefficients it keeps 0.03 mm or more out to the rim (RESIN_LAYER_MAX_MM).
+        "aspheres": True,
+        "why": "the hybrid-aspheric resin layer behind surface 28 (with the patent's aspheric coefficients)",
     },
     {
         "lv": "src/lens-data/panasonic/PanasonicLumixGVario714mmf4.data.ts",
@@ -124,6 +128,24 @@ SPECS = [
         "format": "35 mm full frame",
     },
     {
+        "lv": "src/lens-data/nikon/NikonAFSNikkor2485mmf3545GEDVR.data.ts",
+        "id": "nikon-24-85mm-f3.6-5.8-jp-2011-221421-ex4",
+        "folder": "nikon",
+        "maker": "Nikon",
+        "model": "24-85mm F3.6-5.8, patent example of the AF-S NIKKOR 24-85mm f/3.5-4.5G ED VR",
+        "patent": "JP 2011-221421 A",
+        "example": 4,
+        "f_numbers": [3.6, 5.8],
+        "f_number_source": "the patent's Table 13 F-numbers 3.60 / 5.80 at 24.70 / 87.20 mm (as LensVisualizer's file "
+                           "quotes them; its nominalFno is a calibration to the patent's Figure 8). Named for the "
+                           "24-85 mm range it is an example of (both ends within 5 %, docs/lens-library.md \"Names\") "
+                           "with its own f-numbers: f/5.8 at tele is more than a third of a stop beyond the product's "
+                           "f/4.5",
+        "sensor_mm": (36.0, 24.0),
+        "format": "35 mm full frame",
+        "aspheres": True,
+    },
+    {
         "lv": "src/lens-data/minolta/Minolta75150mmf40MDZoom.data.ts",
         "id": "konica-minolta-75-150mm-f4-md-zoom",
         "folder": "konica-minolta",
@@ -155,9 +177,10 @@ def table_text(git_dir, path):
                           check=True).stdout, None
 
 
-def read_table(git_dir, path):
+def read_table(git_dir, path, with_aspheres=False):
     """The patent's numbers from a LensVisualizer file: rows [{label, radius, thickness, nd, vd,
-    stop}], focal lengths per state, {row: [gap per state]} at infinity focus."""
+    stop}, and `asph` with_aspheres], focal lengths per state, {row: [gap per state]} at infinity
+    focus."""
     text, _ = table_text(git_dir, path)
     vd_of = {int(i): float(v) for i, v in re.findall(r"\bid:\s*(\d+),[^{}]*?\bnd:\s*" + NUMBER + r",\s*vd:\s*(" + NUMBER + ")",
                                                        text)}
@@ -173,6 +196,8 @@ def read_table(git_dir, path):
         rows.append({"label": label, "radius": 0.0 if abs(float(radius)) > 1e10 else float(radius),
                      "thickness": float(d), "nd": nd, "vd": vd_of.get(int(elem)), "stop": stop})
     focal = [float(x) for x in re.findall(NUMBER, re.search(r"zoomPositions:\s*\[([^\]]*)\]", text).group(1))]
+    for label, terms in (aspheres(text) if with_aspheres else {}).items():
+        rows[[r["label"] for r in rows].index(label)]["asph"] = terms
     var = re.search(r"\bvar:\s*\{(.*?)\n  \},", text, re.S).group(1)
     gaps = {}
     labels = [r["label"] for r in rows]
@@ -183,6 +208,46 @@ def read_table(git_dir, path):
             raise SystemExit(f"{path}: gap {label} has {len(values)} states, not {len(focal)}")
         gaps[labels.index(label)] = values
     return rows, focal, gaps
+
+
+def aspheres(text):
+    """{row label: {"k": conic, "A4": ..., ...}} from a LensVisualizer file's `asph` block: the
+    patent's aspheric coefficients as transcribed (terms that are 0 left out; a surface with none
+    left is a sphere)."""
+    start = re.search(r"\basph:\s*\{", text)
+    if not start:
+        return {}
+    depth, end = 1, start.end()
+    while depth:
+        depth += {"{": 1, "}": -1}.get(text[end], 0)
+        end += 1
+    found = {}
+    for quoted, bare, body in re.findall(r'(?:"([^"]+)"|\b(\w+)):\s*\{([^{}]*)\}', text[start.end():end - 1]):
+        terms = {("k" if key == "K" else key): float(value)
+                 for key, value in re.findall(r"\b(K|A\d+):\s*(" + NUMBER + ")", body) if float(value) != 0.0}
+        if terms:
+            found[quoted or bare] = terms
+    return found
+
+
+# A hybrid asphere's moulded resin layer: a layer at most this thick on the axis, cemented to glass,
+# one of whose surfaces is aspheric. Its shape is the patent's own (the asphere keeps it thin but
+# positive out to the rim: JP 2011-221421 A Example 4's 0.22 mm layer thins to 0.08 mm, US 7,804,652
+# B2 Example 4's 0.1 mm layer to 0.03 mm), not an estimate of the collection's, so its clear radius is
+# cut only where its surfaces would come within RESIN_LAYER_MIN_EDGE_MM of each other, not at the
+# importer's minimum edge for glass elements (0.3 mm, or half the axial thickness, which such a layer
+# cannot keep). That floor keeps the two surfaces from meeting at the rim (where a ray would hit both
+# at zero distance, which the tracer does not count: the importer's STOP_OFFSET_MM, for the same reason).
+RESIN_LAYER_MAX_MM = 0.25
+RESIN_LAYER_MIN_EDGE_MM = imp.STOP_OFFSET_MM
+
+
+def resin_layer(rows, i):
+    r = rows[i]
+    if r["stop"] or r["nd"] <= 1.001 or r["thickness"] > RESIN_LAYER_MAX_MM or i + 1 >= len(rows):
+        return False
+    cemented = rows[i + 1]["nd"] > 1.001 or (i > 0 and rows[i - 1]["nd"] > 1.001)
+    return cemented and bool(r.get("asph") or rows[i + 1].get("asph"))
 
 
 def paraxial(rows, thickness):
@@ -230,6 +295,9 @@ def clear_radii(rows, gaps, n_states, f_numbers, half_diagonal):
             semi[i] = min(semi[i], MAX_RIM_TO_RADIUS * abs(r["radius"]))
     # The narrowest state of each variable gap decides where two surfaces would cross.
     tight = [dict(r, thickness=min(gaps[i]) if i in gaps else r["thickness"]) for i, r in enumerate(rows)]
+    for i in range(len(rows)):
+        if resin_layer(rows, i):
+            tight[i]["min_edge_mm"] = RESIN_LAYER_MIN_EDGE_MM
     before = list(semi)
     for _ in range(len(rows)):
         if not imp.cut_pass(tight, semi):
@@ -257,6 +325,7 @@ def lens_text(spec, rows, focal, gaps, commit):
     names = ["wide", "tele"] if n == 2 else ["wide"] + (["mid"] if n == 3 else [f"mid{i}" for i in range(1, n - 1)]) + ["tele"]
     w, h = spec["sensor_mm"]
     semi, stop_radius, cut = clear_radii(rows, gaps, n, spec["f_numbers"], 0.5 * math.hypot(w, h))
+    layers = [i for i in range(len(rows)) if resin_layer(rows, i)]
     semi = published(semi, spec)
     # The last gap is the back focus: the focus solve places the sensor ('auto'); a gap the table lists
     # but that is the same at every state (it varies for close focus only) is a plain thickness.
@@ -285,8 +354,19 @@ def lens_text(spec, rows, focal, gaps, commit):
         "# Stop: " + ("its radius at each position is the paraxial marginal ray's height there at the stated f-number "
                       "(the iris opens as the lens zooms; the patent prints F-numbers, not the stop's diameter)."
                       if varies else "its radius is the paraxial marginal ray's height there at the stated f-number."),
-        "# Aspheres: the surfaces the patent makes aspheric are their base spheres (the paraxial checks are",
-        "# unaffected; ghost shapes are approximate). Focus: the focus solve moves the sensor (the patent's inner",
+    ]
+    if any(r.get("asph") for r in rows):
+        note = ("Aspheres: the patent's aspheric coefficients (k, A4... as transcribed: docs/lens-format.md's even "
+                "asphere) on rows " + ", ".join(str(i + 1) for i, r in enumerate(rows) if r.get("asph")) + (
+                    f"; the hybrid resin layers (rows {', '.join(str(i + 1) for i in layers)}), the patent's own shape, "
+                    f"keep their clear radius out to where they thin to {RESIN_LAYER_MIN_EDGE_MM} mm, not to a 0.3 mm "
+                    "glass edge (RESIN_LAYER_MAX_MM)" if layers else "") + ". Focus: the focus solve moves the sensor (the "
+                "patent's inner")
+        out += ["# " + line for line in textwrap.wrap(note, 104)]
+    else:
+        out += ["# Aspheres: the surfaces the patent makes aspheric are their base spheres (the paraxial checks are",
+                "# unaffected; ghost shapes are approximate). Focus: the focus solve moves the sensor (the patent's inner"]
+    out += [
         "# focusing is not modelled). Glasses: the patent's nd/Vd, each with the dispersion shape of the nearest",
         "# catalogue glass (docs/lens-format.md). ASSUMPTION: a circular iris; single-layer MgF2 on every",
         "# air-glass surface, the project's usual assumption (the patent publishes no coating); the sensor",
@@ -309,7 +389,8 @@ def lens_text(spec, rows, focal, gaps, commit):
         thickness = "auto" if i == last else (f"d{i + 1}" if i in gaps else fmt(r["thickness"]))
         material = f"{fmt(r['nd'])}/{fmt(r['vd'])}" if r["nd"] > 1.001 else "air"
         aperture = "iris" if (r["stop"] and varies) else f"{semi[i]:.4f}"
-        out.append(f"   {radius:<13s} {thickness:<11s} {material:<17s} {aperture}".rstrip())
+        terms = " ".join(f"{key}={value:g}" for key, value in r.get("asph", {}).items())
+        out.append(f"   {radius:<13s} {thickness:<11s} {material:<17s} {aperture} {terms}".rstrip())
     return "\n".join(out) + "\n", names
 
 
@@ -328,7 +409,7 @@ def main():
     staging = tempfile.mkdtemp(prefix="flare-patent-zooms-")
     try:
         for spec in SPECS:
-            rows, focal, gaps = read_table(git_dir, spec["lv"])
+            rows, focal, gaps = read_table(git_dir, spec["lv"], spec.get("aspheres", False))
             text, names = lens_text(spec, rows, focal, gaps, table_text(git_dir, spec["lv"])[1] or commit)
             staged = os.path.join(staging, spec["id"] + ".lens")
             with open(staged, "w", encoding="utf-8") as f:

@@ -1,0 +1,78 @@
+// The patent's numbers of JP 2011-221421 A Example 4 as LensVisualizer transcribes them
+// (src/lens-data/nikon/NikonAFSNikkor2485mmf3545GEDVR.data.ts, commit 2290a7fa8790): radii,
+// thicknesses, nd/Vd, the aspheric coefficients of surfaces 6, 13 and 25, the variable gaps d1-d4 at
+// infinity focus, the patent's end focal lengths 24.70 and 87.20 mm and its Table 13's F-numbers
+// 3.60 and 5.80. Changed against that file: the middle state is left out (LensVisualizer's focal
+// length for it, 48.0002 mm, is its own paraxial computation, not a number the patent prints), and
+// nominalFno is Table 13's 3.60 / 5.80, not LensVisualizer's 3.50 / 5.00 / 5.78 (its calibration to
+// the labels of the patent's Figure 8). The STO row is the patent's surface 14, the aperture stop,
+// 0.5 mm in front of surface 15. The last gap (the back focus) is LensVisualizer's paraxial value;
+// the library file places the sensor by its own focus solve ('auto').
+const LENS_DATA = {
+  elements: [
+    { id: 1, nd: 1.84666, vd: 23.78 },
+    { id: 2, nd: 1.77249, vd: 49.61 },
+    { id: 3, nd: 1.816, vd: 46.62 },
+    { id: 4, nd: 1.5361, vd: 41.42 },
+    { id: 5, nd: 1.8348, vd: 42.72 },
+    { id: 6, nd: 1.8348, vd: 42.72 },
+    { id: 7, nd: 1.80809, vd: 22.79 },
+    { id: 8, nd: 1.82079, vd: 42.71 },
+    { id: 9, nd: 1.90366, vd: 31.27 },
+    { id: 10, nd: 1.603, vd: 65.46 },
+    { id: 11, nd: 1.49782, vd: 82.52 },
+    { id: 12, nd: 2.00069, vd: 25.45 },
+    { id: 13, nd: 1.8061, vd: 40.94 },
+    { id: 14, nd: 1.804, vd: 46.58 },
+    { id: 15, nd: 1.5361, vd: 41.42 },
+    { id: 16, nd: 1.8061, vd: 40.94 },
+    { id: 17, nd: 1.48749, vd: 70.41 },
+    { id: 18, nd: 1.84666, vd: 23.78 },
+  ],
+  surfaces: [
+    { label: "1", R: 372.6274, d: 2.0, nd: 1.84666, elemId: 1 },
+    { label: "2", R: 75.9854, d: 6.7706, nd: 1.77249, elemId: 2 },
+    { label: "3", R: 14844.181, d: 0.1, nd: 1.0, elemId: 0 },
+    { label: "4", R: 50.94, d: 4.9948, nd: 1.816, elemId: 3 },
+    { label: "5", R: 114.4889, d: 3.1, nd: 1.0, elemId: 0 },
+    { label: "6A", R: 73.7591, d: 0.1, nd: 1.5361, elemId: 4 },
+    { label: "7", R: 70.2551, d: 1.35, nd: 1.8348, elemId: 5 },
+    { label: "8", R: 12.9582, d: 7.0662, nd: 1.0, elemId: 0 },
+    { label: "9", R: -45.1259, d: 1.0, nd: 1.8348, elemId: 6 },
+    { label: "10", R: -115.7746, d: 0.1, nd: 1.0, elemId: 0 },
+    { label: "11", R: 130.567, d: 3.985, nd: 1.80809, elemId: 7 },
+    { label: "12", R: -25.0, d: 1.2, nd: 1.82079, elemId: 8 },
+    { label: "13A", R: -5015.0001, d: 18.37739, nd: 1.0, elemId: 0 },
+    { label: "STO", R: 1e15, d: 0.5, nd: 1.0, elemId: 0 },
+    { label: "15", R: 24.398, d: 1.3049, nd: 1.90366, elemId: 9 },
+    { label: "16", R: 13.4702, d: 4.2437, nd: 1.603, elemId: 10 },
+    { label: "17", R: -57.0278, d: 0.1, nd: 1.0, elemId: 0 },
+    { label: "18", R: 29.6013, d: 2.6177, nd: 1.49782, elemId: 11 },
+    { label: "19", R: -71.1125, d: 1.99464, nd: 1.0, elemId: 0 },
+    { label: "20", R: -37.4166, d: 2.45, nd: 2.00069, elemId: 12 },
+    { label: "21", R: -15.022, d: 1.0, nd: 1.8061, elemId: 13 },
+    { label: "22", R: 151.7344, d: 4.1314, nd: 1.0, elemId: 0 },
+    { label: "23", R: -33.7925, d: 1.0, nd: 1.804, elemId: 14 },
+    { label: "24", R: -87.2793, d: 5.90657, nd: 1.0, elemId: 0 },
+    { label: "25A", R: 388.1656, d: 0.22, nd: 1.5361, elemId: 15 },
+    { label: "26", R: -145.3355, d: 4.6004, nd: 1.8061, elemId: 16 },
+    { label: "27", R: -20.4944, d: 0.3, nd: 1.0, elemId: 0 },
+    { label: "28", R: -224.8928, d: 4.3669, nd: 1.48749, elemId: 17 },
+    { label: "29", R: -21.8074, d: 1.0, nd: 1.84666, elemId: 18 },
+    { label: "30", R: -900.0, d: 38.81814907849475, nd: 1.0, elemId: 0 },
+  ],
+  asph: {
+    "6A": { K: 0, A4: 3.3088e-8, A6: -3.8434e-8, A8: 7.4727e-11, A10: -1.035e-13 },
+    "13A": { K: 0, A4: -1.4327e-5, A6: -9.7737e-8, A8: 4.0776e-10, A10: -3.0925e-12 },
+    "25A": { K: 0, A4: -3.961e-5, A6: 4.0647e-9, A8: -9.6361e-11 },
+  },
+  zoomPositions: [24.7, 87.2],
+  var: {
+    "5": [[3.1], [34.60972]],
+    "13A": [[18.37739], [1.5]],
+    "19": [[1.99464], [6.59326]],
+    "24": [[5.90657], [1.3]],
+    "30": [[38.81814907849475], [56.18994076426702]],
+  },
+  nominalFno: [3.6, 5.8],
+};
