@@ -167,12 +167,14 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
     PupilOutlineOptions outlineOptions;
     outlineOptions.widthPx = width;
     outlineOptions.heightPx = height;
-    std::vector<PupilOutline> outlines;
-    for (const StarburstLight& light : lights) {
-        outlines.push_back(tracePupilOutline(lens, light.direction, outlineOptions));
+    // (Each light's outline on its own: traced side by side.)
+    std::vector<PupilOutline> outlines(lights.size());
+    tbb::parallel_for(size_t{0}, lights.size(), size_t{1},
+                      [&](size_t l) { outlines[l] = tracePupilOutline(lens, lights[l].direction, outlineOptions); });
+    for (size_t l = 0; l < lights.size(); ++l) {
         StarburstLightReport report;
-        report.name = light.name;
-        if (!outlines.back().found) report.why = "no ray of the light reaches the sensor";
+        report.name = lights[l].name;
+        if (!outlines[l].found) report.why = "no ray of the light reaches the sensor";
         result.lights.push_back(report);
     }
 
@@ -227,8 +229,9 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
     std::vector<int> groupOf(lights.size()), founders;
     std::vector<double> differenceOf(lights.size(), 0.0);
     if (options.psfGroupTolerance > 0.0) {
-        std::vector<PsfShape> shapes;
-        for (size_t l = 0; l < lights.size(); ++l) shapes.push_back(psfShape(outlines[l], lights[l].spectrum));
+        std::vector<PsfShape> shapes(lights.size());
+        tbb::parallel_for(size_t{0}, lights.size(), size_t{1},
+                          [&](size_t l) { shapes[l] = psfShape(outlines[l], lights[l].spectrum); });
         groupOf = groupByPsf(shapes, options.psfGroupTolerance, &founders);
         for (size_t l = 0; l < lights.size(); ++l)
             if (shapes[l].found) differenceOf[l] = psfShapeDifference(shapes[l], shapes[static_cast<size_t>(founders[groupOf[l]])]);
