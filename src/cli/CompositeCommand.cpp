@@ -28,9 +28,15 @@
 #include "flare/scene/ScenePreview.h"
 #include "flare/scene/SceneStarburst.h"
 
+#include <tbb/task_group.h>
+
 namespace flare::cli {
 
 namespace {
+
+// Regions whose diffraction PSFs differ by at most this share one (StarburstOptions::
+// psfGroupTolerance, PsfGroups.h; docs/composite.md says what it costs in accuracy).
+constexpr double kDefaultPsfTolerance = 0.05;
 
 struct CompositeOptions {
     std::string plate;
@@ -47,6 +53,7 @@ struct CompositeOptions {
     bool cells = false;  // --cell-px given: merge into cells (else region lights)
     double regionDeg = kDefaultRegionRadiusDeg;
     double cullShare = 1e-3;
+    double psfTolerance = kDefaultPsfTolerance;
     LayersOption layers;
     int passes = PreviewBudget::kDefaultPasses;
     int beamsPerPass = 0;  // 0: 256 per region light, 64 per cell (--cell-px gives many more lights)
@@ -230,45 +237,19 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
                          o.cells ? "cells" : "regions", 100.0 * found.culledPowerShare);
     }
 
-    ScenePreview plateFlare;
-    std::optional<ScenePreview> extraFlare;
-    if (!found.lights.empty()) {
-        Scene plateScene = scene;
-        plateScene.lights.resize(found.lights.size());
-        if (!o.quiet) {
-            std::fprintf(stderr, "composite: rendering the flare of %zu light(s)...\n", plateScene.lights.size());
-            std::fflush(stderr);
-        }
-        // The preview's own starburst diffracts the lights' modelled direct image; the plate's
-        // sources are diffracted below instead.
-        plateScene.render.diffraction = false;
-        phase = Clock::now();
-        plateFlare = renderFlare(plateScene, lens, o, o.layers.given, start, true);
-        ghostsS = secondsSince(phase);
-    }
-    if (!extra.empty()) {
-        Scene extraScene = scene;
-        extraScene.lights.assign(scene.lights.end() - static_cast<long>(extra.size()), scene.lights.end());
-        extraFlare = renderFlare(extraScene, lens, o, false, start, false);
-    }
-    if (found.lights.empty()) {
-        std::fprintf(stderr, "composite: warning: no pixel of %s has Y above the threshold %.6g (brightest %.6g): %s\n",
-                     o.plate.c_str(), sources.threshold, sources.maxLuminance,
-                     extra.empty() ? "the composite is the plate" : "only the --extra-lights flare");
-    }
-
-    // The flare in XYZ: the ghosts, and the light's diffraction without its own image (the plate
-    // holds that): starburst − direct, which moves light from the core into the spikes. Lights
-    // from --extra-lights are not in the plate: their whole image is added.
+    // The starburst of the plate's own source pixels (each diffracted by the PSF of the light
+    // nearest it), less those pixels: the light the iris moves from the sources' cores into their
+    // spikes. The plate holds the sources, so the composite stays non-negative. It needs only the
+    // plate and the lights, so it is computed beside the ghosts (each deterministic on its own:
+    // the same bits whatever runs beside it).
     const size_t n = 3 * static_cast<size_t>(w) * h;
-    std::vector<float> ghost(n, 0.0f), starburstDelta(n, 0.0f), higher, extraLayer;
-    if (!found.lights.empty()) {
-        addInto(ghost, plateFlare.ghosts);
-        if (scene.render.diffraction) {
-            // The starburst of the plate's own source pixels (each diffracted by the PSF of the
-            // light nearest it), less those pixels: the light the iris moves from the sources' cores
-            // into their spikes. The plate holds the sources, so the composite stays non-negative.
-            std::vector<float> sourceXyz(n, 0.0f);
+    std::vector<float> sourceXyz;
+    std::optional<StarburstImage> starburst;
+    tbb::task_group beside;
+    if (!found.lights.empty() && scene.render.diffraction)
+        beside.run([&] {
+            const Clock::time_point begin = Clock::now();
+            sourceXyz.assign(n, 0.0f);
             for (size_t p = 0; p < n / 3; ++p) {
                 const glm::dvec3 xyz = plate.space.toXyz * plate.pixel(static_cast<int>(p % w), static_cast<int>(p / w));
                 if (!(xyz.y > sources.threshold)) continue;
@@ -280,10 +261,59 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
             // and the centre lies within it: twice the radius from the centroid at most).
             StarburstOptions crops;
             if (!o.cells) crops.maxCropRadiusPx = std::max(crops.maxCropRadiusPx, static_cast<int>(std::ceil(2.0 * matchRadiusPx)) + 2);
+            crops.psfGroupTolerance = o.psfTolerance;
+            starburst = sceneStarburst(plateScene, lens, sourceXyz, w, h, crops);
+            starburstS = secondsSince(begin);
+        });
+    ScenePreview plateFlare;
+    std::optional<ScenePreview> extraFlare;
+    try {
+        if (!found.lights.empty()) {
+            Scene plateScene = scene;
+            plateScene.lights.resize(found.lights.size());
+            if (!o.quiet) {
+                std::fprintf(stderr, "composite: rendering the flare of %zu light(s)...\n", plateScene.lights.size());
+                std::fflush(stderr);
+            }
+            // The preview's own starburst diffracts the lights' modelled direct image; the plate's
+            // sources are diffracted below instead.
+            plateScene.render.diffraction = false;
             phase = Clock::now();
-            const StarburstImage starburst = sceneStarburst(plateScene, lens, sourceXyz, w, h, crops);
-            starburstS = secondsSince(phase);
-            addInto(starburstDelta, starburst.xyz);
+            plateFlare = renderFlare(plateScene, lens, o, o.layers.given, start, true);
+            ghostsS = secondsSince(phase);
+        }
+        if (!extra.empty()) {
+            Scene extraScene = scene;
+            extraScene.lights.assign(scene.lights.end() - static_cast<long>(extra.size()), scene.lights.end());
+            extraFlare = renderFlare(extraScene, lens, o, false, start, false);
+        }
+    } catch (...) {
+        beside.wait();
+        throw;
+    }
+    beside.wait();
+    if (starburst && !o.quiet) {
+        std::set<int> psfs;
+        double largest = 0.0;
+        for (const StarburstLightReport& r : starburst->lights)
+            if (r.diffracted) psfs.insert(r.psfLight), largest = std::max(largest, r.psfDifference);
+        std::fprintf(stderr, "composite: starburst of %zu light(s) with %zu PSF(s) (pupils within %.2g of their PSF's)\n",
+                     starburst->lights.size(), psfs.size(), largest);
+    }
+    if (found.lights.empty()) {
+        std::fprintf(stderr, "composite: warning: no pixel of %s has Y above the threshold %.6g (brightest %.6g): %s\n",
+                     o.plate.c_str(), sources.threshold, sources.maxLuminance,
+                     extra.empty() ? "the composite is the plate" : "only the --extra-lights flare");
+    }
+
+    // The flare in XYZ: the ghosts, and the light's diffraction without its own image (the plate
+    // holds that): starburst − direct, which moves light from the core into the spikes. Lights
+    // from --extra-lights are not in the plate: their whole image is added.
+    std::vector<float> ghost(n, 0.0f), starburstDelta(n, 0.0f), higher, extraLayer;
+    if (!found.lights.empty()) {
+        addInto(ghost, plateFlare.ghosts);
+        if (starburst) {
+            addInto(starburstDelta, starburst->xyz);
             addInto(starburstDelta, sourceXyz, -1.0f);
         }
         if (!plateFlare.higher.empty()) higher = plateFlare.higher;
@@ -449,6 +479,10 @@ void addCompositeCommand(CLI::App& app) {
     c->add_option("--cull-share", o->cullShare,
                   "leave out the dimmest cells while together they hold at most this share of the power (default 1e-3)")
         ->check(CLI::Range(0.0, 0.5));
+    c->add_option("--psf-tolerance", o->psfTolerance,
+                  "regions whose diffraction PSFs differ by at most this (relative area of their pupils' difference) "
+                  "share one (default 0.05; 0: one per region)")
+        ->check(CLI::Range(0.0, 1.0));
     c->add_option("--extra-lights", o->extraLights, "scene file whose lights are added (sources the plate cannot show)");
     c->add_option("--lights-json", o->lightsJson, "write the scene of the lights found (edit it, render it)");
     addLayersOption(c, o->layers, "add the per-ghost layers (ghost_03_07.R/G/B, half precision, parts of their own)");

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <unordered_map>
 #include <utility>
@@ -125,8 +126,16 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
     const bool anyScattering = interiorScatters(options.materials) || tracer_.hasContamination() || tracer_.hasMedia();
 
     std::vector<double> lightWeight;
-    for (const LightSpec& spec : lights) {
-        renderer::PlannedLight planned = renderer::planLight(lens, spec, options, anyScattering);
+    // The lights' analyses and plans are independent (each deterministic on its own): planned
+    // side by side, so that many lights (a plate's regions) keep both cores busy through each
+    // analysis's serial stretches; kept in the lights' order.
+    std::vector<std::optional<renderer::PlannedLight>> plannedLights(lights.size());
+    tbb::parallel_for(size_t{0}, lights.size(), size_t{1}, [&](size_t l) {
+        plannedLights[l].emplace(renderer::planLight(lens, lights[l], options, anyScattering));
+    });
+    for (std::optional<renderer::PlannedLight>& slot : plannedLights) {
+        renderer::PlannedLight planned = std::move(*slot);
+        slot.reset();
         planned.state.tallyOffset = static_cast<int>(tallies_.size());
         addLightTallies(static_cast<int>(lightPlans_.size()), planned.state, tallies_);
         lightWeight.push_back(planned.plan.skipped ? 0.0 : planned.plan.enteringPowerW);

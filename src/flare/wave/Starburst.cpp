@@ -14,6 +14,7 @@
 #include "flare/wave/DiffractionPsf.h"
 #include "flare/wave/DustGlow.h"
 #include "flare/wave/KissFft.h"
+#include "flare/wave/PsfGroups.h"
 
 namespace flare {
 
@@ -166,12 +167,14 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
     PupilOutlineOptions outlineOptions;
     outlineOptions.widthPx = width;
     outlineOptions.heightPx = height;
-    std::vector<PupilOutline> outlines;
-    for (const StarburstLight& light : lights) {
-        outlines.push_back(tracePupilOutline(lens, light.direction, outlineOptions));
+    // (Each light's outline on its own: traced side by side.)
+    std::vector<PupilOutline> outlines(lights.size());
+    tbb::parallel_for(size_t{0}, lights.size(), size_t{1},
+                      [&](size_t l) { outlines[l] = tracePupilOutline(lens, lights[l].direction, outlineOptions); });
+    for (size_t l = 0; l < lights.size(); ++l) {
         StarburstLightReport report;
-        report.name = light.name;
-        if (!outlines.back().found) report.why = "no ray of the light reaches the sensor";
+        report.name = lights[l].name;
+        if (!outlines[l].found) report.why = "no ray of the light reaches the sensor";
         result.lights.push_back(report);
     }
 
@@ -189,36 +192,97 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
             }
         }
 
-    for (size_t l = 0; l < lights.size(); ++l) {
-        StarburstLightReport& report = result.lights[l];
-        if (!outlines[l].found) continue;
-        const auto start = std::chrono::steady_clock::now();
-
-        // The crop: the square about the image's energy centroid holding cropEnergy of it.
-        glm::dvec2 centroid{0.0};
+    // Each light's crop: the square about its image's energy centroid holding cropEnergy of it.
+    struct Crop {
         double energyY = 0.0;
+        int cx = 0, cy = 0, radius = 0;
+    };
+    std::vector<Crop> cropOf(lights.size());
+    for (size_t l = 0; l < lights.size(); ++l) {
+        if (!outlines[l].found) continue;
+        Crop& k = cropOf[l];
+        glm::dvec2 centroid{0.0};
         for (size_t i = 0; i < pixels; ++i)
             if (owner[i] == static_cast<int>(l)) {
                 const double y = directXyz[3 * i + 1];
                 centroid += y * glm::dvec2(i % width + 0.5, i / width + 0.5);
-                energyY += y;
+                k.energyY += y;
             }
-        report.directEnergyY = energyY;
+        result.lights[l].directEnergyY = k.energyY;
+        if (!(k.energyY > 0.0)) continue;
+        centroid /= k.energyY;
+        k.cx = static_cast<int>(std::floor(centroid.x)), k.cy = static_cast<int>(std::floor(centroid.y));
+        std::vector<double> byRing(options.maxCropRadiusPx + 1, 0.0);
+        for (size_t i = 0; i < pixels; ++i)
+            if (owner[i] == static_cast<int>(l)) {
+                const int ring = std::max(std::abs(static_cast<int>(i % width) - k.cx), std::abs(static_cast<int>(i / width) - k.cy));
+                if (ring <= options.maxCropRadiusPx) byRing[ring] += directXyz[3 * i + 1];
+            }
+        for (double sum = byRing[0]; k.radius < options.maxCropRadiusPx && sum < options.cropEnergy * k.energyY;)
+            sum += byRing[++k.radius];
+    }
+
+    // The PSFs: one per light, or with psfGroupTolerance one per group of lights whose pupils
+    // agree (PsfGroups.h), the founder's, its window evaluated once at the largest its lights need.
+    // A degenerate pupil or map (a light at the edge of a fisheye's field) leaves the group's
+    // lights undiffracted, with the reason, rather than failing the whole image.
+    std::vector<int> groupOf(lights.size()), founders;
+    std::vector<double> differenceOf(lights.size(), 0.0);
+    if (options.psfGroupTolerance > 0.0) {
+        std::vector<PsfShape> shapes(lights.size());
+        tbb::parallel_for(size_t{0}, lights.size(), size_t{1},
+                          [&](size_t l) { shapes[l] = psfShape(outlines[l], lights[l].spectrum); });
+        groupOf = groupByPsf(shapes, options.psfGroupTolerance, &founders);
+        for (size_t l = 0; l < lights.size(); ++l)
+            if (shapes[l].found) differenceOf[l] = psfShapeDifference(shapes[l], shapes[static_cast<size_t>(founders[groupOf[l]])]);
+    } else {
+        for (size_t l = 0; l < lights.size(); ++l) groupOf[l] = static_cast<int>(l), founders.push_back(static_cast<int>(l));
+    }
+    struct GroupPsf {
+        std::optional<ApertureTransform> aperture;
+        std::optional<DiffractionPsf> psf;
+        std::string why;
+        int window = 0;
+        std::vector<float> kernelXyz;  // the PSF on (2·window + 1)² pixels
+    };
+    std::vector<GroupPsf> groups(founders.size());
+    // Each light's window: several crop radii, and the coherent core's.
+    auto windowFor = [&](const DiffractionPsf& psf, int radius) {
+        return std::max({options.minWindowPx, static_cast<int>(std::ceil(psf.coherentRadiusPx())) + 4,
+                         std::min(options.maxWindowPx, static_cast<int>(std::ceil(options.windowPerCropRadius * radius)))});
+    };
+    for (size_t g = 0; g < groups.size(); ++g) {
+        const size_t f = static_cast<size_t>(founders[g]);
+        if (!outlines[f].found) continue;
+        GroupPsf& group = groups[g];
+        try {
+            group.aperture.emplace(outlines[f].outlineMm);
+            group.psf.emplace(*group.aperture, lights[f].spectrum, outlines[f].pxPerRad);
+        } catch (const std::invalid_argument& e) {
+            group.why = std::string("no diffraction PSF: ") + e.what();
+            continue;
+        }
+        for (size_t l = 0; l < lights.size(); ++l)
+            if (groupOf[l] == static_cast<int>(g) && outlines[l].found && cropOf[l].energyY > 0.0)
+                group.window = std::max(group.window, windowFor(*group.psf, cropOf[l].radius));
+        if (group.window > 0) group.kernelXyz = group.psf->window(group.window);
+    }
+
+    for (size_t l = 0; l < lights.size(); ++l) {
+        StarburstLightReport& report = result.lights[l];
+        if (!outlines[l].found) continue;
+        const auto start = std::chrono::steady_clock::now();
+        const double energyY = cropOf[l].energyY;
         if (!(energyY > 0.0)) {
             report.why = "its direct image has no energy on the sensor";
             continue;
         }
-        centroid /= energyY;
-        const int cx = static_cast<int>(std::floor(centroid.x)), cy = static_cast<int>(std::floor(centroid.y));
-        std::vector<double> byRing(options.maxCropRadiusPx + 1, 0.0);
-        for (size_t i = 0; i < pixels; ++i)
-            if (owner[i] == static_cast<int>(l)) {
-                const int ring = std::max(std::abs(static_cast<int>(i % width) - cx), std::abs(static_cast<int>(i / width) - cy));
-                if (ring <= options.maxCropRadiusPx) byRing[ring] += directXyz[3 * i + 1];
-            }
-        int radius = 0;
-        for (double sum = byRing[0]; radius < options.maxCropRadiusPx && sum < options.cropEnergy * energyY;)
-            sum += byRing[++radius];
+        GroupPsf& group = groups[static_cast<size_t>(groupOf[l])];
+        if (!group.psf) {
+            report.why = group.why;
+            continue;
+        }
+        const int cx = cropOf[l].cx, cy = cropOf[l].cy, radius = cropOf[l].radius;
         const int cropSide = 2 * radius + 1;
         std::vector<float> crop[3];
         for (auto& c : crop) c.assign(static_cast<size_t>(cropSide) * cropSide, 0.0f);
@@ -246,39 +310,34 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
         report.cropRadiusPx = radius;
         report.diffractedShare = cropEnergy.y / energyY;
 
-        // A degenerate pupil or map (a light at the edge of a fisheye's field) leaves the light
-        // undiffracted, with the reason, rather than failing the whole image.
-        std::optional<ApertureTransform> aperture;
-        std::optional<DiffractionPsf> psfStorage;
-        try {
-            aperture.emplace(outlines[l].outlineMm);
-            psfStorage.emplace(*aperture, lights[l].spectrum, outlines[l].pxPerRad);
-        } catch (const std::invalid_argument& e) {
-            report.why = std::string("no diffraction PSF: ") + e.what();
-            for (size_t i = 0; i < pixels; ++i)  // put the crop back
-                if (owner[i] == static_cast<int>(l)) std::copy_n(&directXyz[3 * i], 3, &result.xyz[3 * i]);
-            continue;
-        }
-        DiffractionPsf& psf = *psfStorage;
-        const int window = std::max({options.minWindowPx, static_cast<int>(std::ceil(psf.coherentRadiusPx())) + 4,
-                                     std::min(options.maxWindowPx,
-                                              static_cast<int>(std::ceil(options.windowPerCropRadius * radius)))});
-        const std::vector<float> kernelXyz = psf.window(window);
+        const ApertureTransform& aperture = *group.aperture;
+        const DiffractionPsf& psf = *group.psf;
+        const int window = windowFor(psf, radius);
+        // The group's window cut to this light's (the same PSF on fewer pixels).
+        const int kernelSide = 2 * window + 1;
+        std::vector<float> kernelXyz(3 * static_cast<size_t>(kernelSide) * kernelSide);
+        for (int y = 0; y < kernelSide; ++y)
+            std::copy_n(&group.kernelXyz[3 * ((static_cast<size_t>(y) + group.window - window) * (2 * group.window + 1) +
+                                              (group.window - window))],
+                        3 * kernelSide, &kernelXyz[3 * static_cast<size_t>(y) * kernelSide]);
         const double taperWidth = 0.5 * window, taperStart = window - taperWidth;
-        report.pupilAreaMm2 = aperture->areaMm2();
-        report.spikeEdges = static_cast<int>(aperture->spikeEdges().size());
-        report.smoothOutlineShare = aperture->smoothLengthMm() / aperture->perimeterMm();
+        report.psfLight = founders[static_cast<size_t>(groupOf[l])];
+        report.psfDifference = differenceOf[l];
+        report.pupilAreaMm2 = aperture.areaMm2();
+        report.spikeEdges = static_cast<int>(aperture.spikeEdges().size());
+        report.smoothOutlineShare = aperture.smoothLengthMm() / aperture.perimeterMm();
         report.wavelengths = static_cast<int>(psf.spectrum().size());
         report.windowRadiusPx = window;
         report.coherentRadiusPx = psf.coherentRadiusPx();
         report.parsevalError = psf.parsevalError();
 
-        // Near: the tapered window convolved with the crop.
-        const int kernelSide = 2 * window + 1;
+        // Near: the tapered window convolved with the crop, the three channels in parallel (each
+        // writes its own channel; the row sums are the Y channel's).
         const int outSide = kernelSide + cropSide - 1;
-        const FftPlan plan(KissFft2d::nextFastSize(outSide), KissFft2d::nextFastSize(outSide));
         std::vector<double> inFrameRows(height, 0.0);
-        for (int c = 0; c < 3; ++c) {
+        tbb::parallel_for(0, 3, [&](int c) {
+            // (A plan per channel: KissFFT's plan holds its scratch buffer.)
+            const FftPlan plan(KissFft2d::nextFastSize(outSide), KissFft2d::nextFastSize(outSide));
             std::vector<float> kernel(static_cast<size_t>(kernelSide) * kernelSide);
             for (int y = 0; y < kernelSide; ++y)
                 for (int x = 0; x < kernelSide; ++x) {
@@ -296,7 +355,7 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
                     result.xyz[3 * (static_cast<size_t>(py) * width + px) + c] += v;
                     if (c == 1) inFrameRows[py] += v;
                 }
-        }
+        });
 
         // Far: the spikes' envelopes times the crop's transverse profiles, and the halo.
         const std::vector<DiffractionPsf::Spike>& spikes = psf.spikes();
@@ -310,8 +369,8 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
         // tail of its sinc² beyond) and the corners' interference. The spikes' tails and the
         // corners are what lights the frame between the spikes: they fall as 1/r⁴ and reach every
         // pixel, none is cut off.
-        const bool halo = aperture->smoothLengthMm() > 0.0;
-        const bool corners = !aperture->corners().empty();
+        const bool halo = aperture.smoothLengthMm() > 0.0;
+        const bool corners = !aperture.corners().empty();
         // Per spike, the band any channel's profile covers, and the widest sinc².
         std::vector<glm::dvec2> bands(spikes.size());
         std::vector<double> widest(spikes.size());

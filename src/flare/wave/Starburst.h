@@ -42,6 +42,11 @@ struct StarburstOptions {
     // At most (a large light's crop then spans much of the window, and the far part's envelope
     // varies across it: broad spikes of a broad light are approximate).
     int maxWindowPx = 320;
+    // Lights whose PSFs differ by at most this (PsfGroups.h: the relative area of their pupils'
+    // symmetric difference in pixel-frequency space) share one PSF, their founder's: its pupil
+    // traced once, its near window evaluated once at the largest any of them needs. 0: every light
+    // its own PSF.
+    double psfGroupTolerance = 0.0;
 };
 
 // One light's diffraction, traced through the lens at the image's resolution.
@@ -70,6 +75,8 @@ struct StarburstLightReport {
     int wavelengths = 0;
     int cropRadiusPx = 0, windowRadiusPx = 0;
     double coherentRadiusPx = 0.0;
+    int psfLight = -1;               // the light whose PSF it was given (itself, or its group's founder)
+    double psfDifference = 0.0;      // PsfGroups.h's difference from that light's pupil
     double parsevalError = 0.0;      // the PSF model's energy before normalisation, minus 1
     double directEnergyY = 0.0;      // of this light's part of the direct image
     double diffractedShare = 0.0;    // of it, in the crop
