@@ -86,8 +86,8 @@ std::vector<RenderOptions::ErrorTarget> RenderStopRule::errorTargets() const {
 
 double RenderStopRule::progress(const Renderer& renderer, double elapsedS) const {
     const RenderStatistics& s = renderer.statistics();
-    const std::int64_t photonLimit = passesWanted * renderer.options().photonsPerPass();
-    double fraction = photonLimit > 0 ? static_cast<double>(s.photons) / photonLimit : 0.0;
+    // (The photon limit is a number of nominal passes: the adaptive plan sizes each pass's photons.)
+    double fraction = passesWanted > 0 ? static_cast<double>(s.passes) / static_cast<double>(passesWanted) : 0.0;
     if (timeS > 0.0) fraction = std::max(fraction, elapsedS / timeS);
     const double error = renderer.estimatedRelativeError(kGroupFlare);
     if (targetError > 0.0 && error > 0.0 && renderer.hasErrorEstimate())
