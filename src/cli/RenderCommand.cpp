@@ -45,6 +45,8 @@ struct RenderCommandOptions {
     long long photons = -1;  // −1: the scene's
     double timeS = 0.0;
     double targetError = 0.02;  // 0: none
+    double ghostTargetError = 0.0;  // 0: none
+    std::string passPlan = "adaptive";
     int maxBounces = -2;     // −2: the scene's
     int beamsPerPass = 0;    // 0: the scene's
     int beamReplicates = 2;
@@ -133,7 +135,12 @@ int run(const RenderCommandOptions& o) {
     overrides.strayLightSampling = !o.analogStray;
     if (o.scatterSplits > 0) overrides.scatterSplits = o.scatterSplits;
     if (o.interiorAlbedo >= 0.0) overrides.interiorAlbedo = o.interiorAlbedo;
-    const RenderOptions options = sceneRenderOptions(scene, lens, overrides);
+    RenderOptions options = sceneRenderOptions(scene, lens, overrides);
+    const RenderStopRule stop = RenderStopRule::make(scene, options, o.photons > 0 ? o.photons : 0, o.timeS, o.targetError,
+                                                     o.ghostTargetError);
+    // The adaptive pass plan drives down the errors the render stops on.
+    options.passPlan = o.passPlan == "fixed" ? RenderOptions::PassPlan::Fixed : RenderOptions::PassPlan::Adaptive;
+    options.errorTargets = stop.errorTargets();
 
     if (!quiet) {
         // The analysis prints nothing of its own and can take seconds: say what is happening.
@@ -161,7 +168,6 @@ int run(const RenderCommandOptions& o) {
                          static_cast<long long>(renderer.statistics().photons));
     }
 
-    const RenderStopRule stop = RenderStopRule::make(scene, options, o.photons > 0 ? o.photons : 0, o.timeS, o.targetError);
     // (The ranks trace a pass ahead while rank 0 ends the last: none beyond the last pass.)
     if (stop.passesWanted > 0) renderer.setPassLimit(static_cast<int>(std::min<std::int64_t>(stop.passesWanted, std::numeric_limits<int>::max())));
 
@@ -305,6 +311,14 @@ void addRenderCommand(CLI::App& app) {
                        "+ scatter) falls below this (default 0.02; 0: none); --time, --photons or else the scene's "
                        "photon count limit the render")
         ->check(CLI::Range(0.0, 1.0));
+    render->add_option("--ghost-target-error", o->ghostTargetError,
+                       "also wait for the ghost layer's estimated relative L2 error to fall below this (default 0: "
+                       "no target of its own)")
+        ->check(CLI::Range(0.0, 1.0));
+    render->add_option("--pass-plan", o->passPlan,
+                       "adaptive (default: each pass's beams and photons chosen from the passes before, at the same "
+                       "cost, so that the targeted errors fall fastest) or fixed (every pass the same)")
+        ->check(CLI::IsMember({"adaptive", "fixed"}));
     render->add_option("--max-bounces", o->maxBounces, "stop photons after K reflections (-1: unbounded)")
         ->check(CLI::Range(-1, 1000));
     render->add_option("--beams-per-pass", o->beamsPerPass,

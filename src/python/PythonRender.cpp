@@ -134,6 +134,8 @@ RenderResult render(const Scene& scene, const RenderArguments& arguments, const 
     runEngine([&] {
         lens.emplace(buildSceneLens(scene));
         options.emplace(sceneRenderOptions(scene, *lens, overrides));
+        // The adaptive pass plan drives down the error the render stops on, as the CLI's.
+        options->errorTargets = RenderStopRule::make(scene, *options, 0, 0.0, arguments.targetError).errorTargets();
         renderer = std::make_unique<Renderer>(*lens, scene.lights, *options);
         std::error_code ec;
         if (arguments.checkpoint && std::filesystem::is_regular_file(*arguments.checkpoint, ec))

@@ -236,7 +236,7 @@ int beamCount(std::uint64_t seed, double rate, int pass, size_t light, int slot)
 void traceBeam(const LensSystem& lens, const RenderOptions& options, const PhotonTracer& tracer,
                const LightState& light, int pass, BeamJob& job) {
     const GhostEstimate& estimate = light.report.ghosts[job.slot - 1];
-    const double beams = light.beamRate[job.slot];
+    const double beams = job.rate;
     const std::uint64_t path = (static_cast<std::uint64_t>(job.light) << 20) ^ static_cast<std::uint64_t>(job.slot);
     // The beam's sample: the next point of its path's sequence in its replicate (every path and
     // replicate scrambled independently), so a render's beams of a path are one stratified

@@ -61,6 +61,7 @@ int beamCount(std::uint64_t seed, double rate, int pass, size_t light, int slot)
 struct BeamJob {
     int light = 0, slot = 0, index = 0;  // index: the beam's number within the path's pass
     int replicate = 0;
+    double rate = 0.0;                   // the path's expected beams in this pass (its weight is 1 / rate)
     std::uint64_t sequenceIndex = 0;     // the beam's point in its replicate's sequence
     GhostBeam beam;
     glm::dvec2 jitterPx{0.0};

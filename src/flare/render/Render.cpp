@@ -169,6 +169,8 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
         componentCdf_ = renderer::cumulativeProbabilities(components_);
         batches_.resize(options.batchesPerPass);
     }
+    // The first passes are nominal: the plan needs an error estimate (a pass in every replicate).
+    passSizes_.assign(2, renderer::PassSizes{1.0, static_cast<int>(batches_.size())});
 }
 
 Renderer::~Renderer() = default;
@@ -194,7 +196,14 @@ void Renderer::addScatterSourceLayers() {
 
 void Renderer::setUpFilm() {
     const FilmSettings& film = options_.film;
-    if (layerNames_.size() > kFixedLayerCount) film_ = Film(film, static_cast<int>(layerNames_.size()));
+    bool anyBeams = false;
+    for (const renderer::LightState& light : lightStates_)
+        for (int slot = 1; slot < light.slots; ++slot) anyBeams = anyBeams || light.beamRate[slot] > 0.0;
+    // The plan moves effort between the two strategies only when a pass has both.
+    adaptivePlan_ = options_.passPlan == RenderOptions::PassPlan::Adaptive && options_.tracePhotons && anyBeams &&
+                    options_.batchesPerPass > 0;
+    const int layers = static_cast<int>(layerNames_.size()) + (adaptivePlan_ ? 1 : 0);
+    if (layers > kFixedLayerCount) film_ = Film(film, layers);
     if (options_.smoothNeighbours > 0 && film.kernel == FilmSettings::Kernel::Fixed) {
         const double maxRadiusPx = std::max(film.maxRadiusPx, film.widthPx / 16.0);
         film_.setLayerKernel(kLayerScatter, FilmSettings::Kernel::Adaptive, options_.smoothNeighbours, maxRadiusPx, true);
@@ -211,15 +220,26 @@ void Renderer::setUpFilm() {
     for (int l = 0; l < kFixedLayerCount; ++l) film_.addVarianceGroup({l});
     // (Without the flare group's sums, its index stays: kGroupFlare, no layers.)
     film_.addVarianceGroup(options_.ghostGroupsOnly ? std::vector<int>{} : std::vector<int>{kLayerGhost, kLayerHigher, kLayerScatter});
+    // The beams' own image (not in the total, never written): its variance is the beams' part of
+    // every group's, the plan's measure of what more beams would buy.
+    if (adaptivePlan_) {
+        beamsLayer_ = static_cast<int>(layerNames_.size());
+        beamsGroup_ = film_.addVarianceGroup({beamsLayer_});
+    }
     // Beams continue their sequences from pass to pass: the error is estimated from replicates.
-    bool anyBeams = false;
-    for (const renderer::LightState& light : lightStates_)
-        for (int slot = 1; slot < light.slots; ++slot) anyBeams = anyBeams || light.beamRate[slot] > 0.0;
     if (anyBeams) film_.setReplicates(options_.beamReplicates);
 }
 
-int Renderer::beamCount(int pass, size_t light, int slot) const {
-    return renderer::beamCount(options_.seed, lightStates_[light].beamRate[slot], pass, light, slot);
+double Renderer::beamRate(int pass, size_t light, int slot, const std::vector<renderer::PassSizes>& plan) const {
+    // Scaled by the pass's plan; a path drawn at least once a pass keeps that floor (BeamStrategy.h:
+    // a rare path weighted by one over a tiny rate is heavy-tailed).
+    const double rate = lightStates_[light].beamRate[slot];
+    const double scale = plan.at(static_cast<size_t>(pass)).beamScale;
+    return scale == 1.0 ? rate : std::max(rate * scale, std::min(rate, 1.0));
+}
+
+int Renderer::beamCount(int pass, size_t light, int slot, const std::vector<renderer::PassSizes>& plan) const {
+    return renderer::beamCount(options_.seed, beamRate(pass, light, slot, plan), pass, light, slot);
 }
 
 std::vector<renderer::BeamJob> Renderer::drawBeamJobs() {
@@ -229,7 +249,8 @@ std::vector<renderer::BeamJob> Renderer::drawBeamJobs() {
     for (size_t l = 0; l < lightStates_.size(); ++l) {
         const renderer::LightState& light = lightStates_[l];
         for (int slot = 1; slot < light.slots; ++slot) {
-            const int count = beamCount(statistics_.passes, l, slot);
+            const int count = beamCount(statistics_.passes, l, slot, passSizes_);
+            const double rate = beamRate(statistics_.passes, l, slot, passSizes_);
             std::uint64_t& drawn = beamsDrawn_[l][static_cast<size_t>(slot) * options_.beamReplicates + replicate];
             for (int k = 0; k < count; ++k) {
                 renderer::BeamJob job;
@@ -237,6 +258,7 @@ std::vector<renderer::BeamJob> Renderer::drawBeamJobs() {
                 job.slot = slot;
                 job.index = k;
                 job.replicate = replicate;
+                job.rate = rate;
                 job.sequenceIndex = drawn++;
                 jobs.push_back(std::move(job));
             }
@@ -245,9 +267,26 @@ std::vector<renderer::BeamJob> Renderer::drawBeamJobs() {
     return jobs;
 }
 
+void Renderer::startPass() {
+    // The pass's photon batches (the plan's; the options' without photons: none).
+    if (options_.tracePhotons) batches_.resize(static_cast<size_t>(passSizes(statistics_.passes).photonBatches));
+}
+
+void Renderer::weightPhotonHits(std::vector<renderer::BatchResult>& batches) const {
+    // A pass of π photon batches weights its photons by nominal / π: every pass is then an
+    // estimate of the film's nominal pass (the film divides by the nominal photon count). The
+    // tallies take the batches' per-photon means, which do not depend on the pass's size.
+    if (batches.empty() || static_cast<int>(batches.size()) == options_.batchesPerPass) return;
+    const double weight = static_cast<double>(options_.batchesPerPass) / static_cast<double>(batches.size());
+    for (renderer::BatchResult& batch : batches)
+        for (renderer::SensorHit& hit : batch.hits)
+            for (float& v : hit.xyz) v = static_cast<float>(v * weight);
+}
+
 void Renderer::runPass() {
     if (exchange_ != nullptr && exchange_->size() > 1) return runDistributedPass();
     const auto start = std::chrono::steady_clock::now();
+    startPass();
     const int batches = static_cast<int>(batches_.size());  // 0 without photons
     const int replicate = replicateOfPass(statistics_.passes);
     std::vector<renderer::BeamJob> beamJobs = drawBeamJobs();
@@ -265,12 +304,70 @@ void Renderer::runPass() {
                                      batches_[j - beamJobs.size()]);
         }
     });
+    weightPhotonHits(batches_);
     merge(batches_, beamJobs);
     addPassTallies(beamJobs, replicate);
     film_.endPass(options_.photonsPerPass());
     batchesDone_ += batches;
     ++statistics_.passes;
+    planPassAfterNext();
     statistics_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+std::vector<std::pair<double, int>> Renderer::passPlan() const {
+    std::vector<std::pair<double, int>> plan;
+    for (int p = 0; p < statistics_.passes; ++p) plan.emplace_back(passSizes(p).beamScale, passSizes(p).photonBatches);
+    return plan;
+}
+
+void Renderer::planPassAfterNext() {
+    // After pass q (passes = q + 1) the sizes of pass q + 2: the ranks, tracing a pass ahead, are
+    // told pass q + 1's during pass q (RenderDistributed.cpp).
+    const int passes = statistics_.passes;
+    passSizes_.resize(static_cast<size_t>(passes) + 1);
+    renderer::PassSizes sizes = passSizes_.back();
+    if (adaptivePlan_ && film_.hasVariance() && (passes < 16 || passes % std::max(1, passes / 16) == 0)) {
+        // (The estimate scans the whole film: after 16 passes the plan is revised every sixteenth
+        // of the passes done, as the stop rule checks its target, and otherwise kept.)
+        const int nominalBatches = options_.batchesPerPass;
+        double inverseBeams = 0.0, inversePhotons = 0.0, beamScales = 0.0, photonScales = 0.0;
+        for (int p = 0; p < passes; ++p) {
+            const renderer::PassSizes& s = passSizes(p);
+            const double photonScale = static_cast<double>(s.photonBatches) / nominalBatches;
+            inverseBeams += 1.0 / s.beamScale, inversePhotons += 1.0 / photonScale;
+            beamScales += s.beamScale, photonScales += photonScale;
+        }
+        // A nominal pass's work: beam rays, photons in ray units (PassPlan.h).
+        const double beamCost = static_cast<double>(statistics_.beamRays) / beamScales;
+        const double photonCost =
+            static_cast<double>(statistics_.photons) * renderer::photonCostInRays(options_.scatterSplits) / photonScales;
+        const double beamsVariance = film_.errorEstimate(beamsGroup_).sumVariance;
+        std::vector<RenderOptions::ErrorTarget> wanted = options_.errorTargets;
+        if (wanted.empty()) wanted.push_back({kGroupFlare, 1.0});
+        std::vector<renderer::PlanTarget> targets;
+        const double p2 = static_cast<double>(passes) * passes;
+        for (const RenderOptions::ErrorTarget& w : wanted) {
+            if (!(w.relativeError > 0.0) || w.group < 0 || w.group >= kVarianceGroupCount) continue;
+            const Film::ErrorEstimate e = film_.errorEstimate(w.group);
+            if (!(e.squaredNorm > 0.0)) continue;
+            // The beams' part of the group's variance (the two strategies' estimates are
+            // independent: the variances add); groups without beams have none.
+            const bool hasBeams = w.group == kGroupTotal || w.group == kGroupGhost || w.group == kGroupHigher ||
+                                  w.group == kGroupFlare;
+            const double beamPart = hasBeams ? std::min(beamsVariance, e.sumVariance) : 0.0;
+            renderer::PlanTarget t;
+            t.beamVariance = beamPart * p2 / inverseBeams;
+            t.photonVariance = (e.sumVariance - beamPart) * p2 / inversePhotons;
+            t.accumulated = e.sumVariance * p2;
+            t.normTimesTarget2 = e.squaredNorm * w.relativeError * w.relativeError;
+            targets.push_back(t);
+        }
+        const renderer::PlanSplit split =
+            renderer::choosePassSplit(targets, beamCost, photonCost, renderer::kMinPassScale, renderer::kMaxPassScale);
+        sizes.beamScale = std::max(1.0, std::round(split.beamScale * renderer::kBeamScaleSteps)) / renderer::kBeamScaleSteps;
+        sizes.photonBatches = std::max(1, static_cast<int>(std::lround(split.photonScale * nominalBatches)));
+    }
+    passSizes_.push_back(sizes);
 }
 
 Renderer::HitsByBand Renderer::hitsByBand(const std::vector<renderer::BatchResult>& batches,
@@ -335,6 +432,9 @@ void Renderer::rasteriseBeamsInBand(int band, const std::vector<renderer::BeamJo
     }
     if (touched[0]) add(kLayerGhost, scratch[0].data(), !options_.ghostGroupsOnly);
     if (touched[1]) add(kLayerHigher, scratch[1].data(), !options_.ghostGroupsOnly);
+    if (beamsLayer_ >= 0)
+        for (int target = 0; target < 2; ++target)
+            if (touched[target]) add(beamsLayer_, scratch[target].data(), false);
 }
 
 void Renderer::merge(const std::vector<renderer::BatchResult>& batches, const std::vector<renderer::BeamJob>& beams) {

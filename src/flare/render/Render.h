@@ -51,6 +51,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "flare/core/OutputFiles.h"
@@ -61,6 +62,7 @@
 #include "flare/optics/IndexTable.h"
 #include "flare/photons/Light.h"
 #include "flare/photons/PhotonTracer.h"
+#include "flare/render/PassPlan.h"
 
 namespace flare {
 
@@ -146,6 +148,22 @@ struct RenderOptions {
     double higherOrderKeepShare = 0.99;  // of the chains' analysed power
     int maxHigherOrderPaths = 512;
     int maxAnalysedChains = 2560;
+
+    // How a guided render's passes share their cost between beams and photons (PassPlan.h):
+    // Fixed, every pass the nominal one (beamsPerPass, batchesPerPass); Adaptive, from the third
+    // pass on each pass's beams and photons are scaled, at the nominal pass's deterministic cost,
+    // so that the largest of errorTargets' estimated errors over their targets falls fastest.
+    // Either way every pass is an unbiased estimate of the image.
+    enum class PassPlan { Fixed, Adaptive };
+    PassPlan passPlan = PassPlan::Adaptive;
+    // The errors the adaptive plan drives down: variance groups (RenderVarianceGroup) with their
+    // target relative errors (only their ratios matter to the plan); empty: the flare without the
+    // direct image alone.
+    struct ErrorTarget {
+        int group = 0;
+        double relativeError = 0.0;
+    };
+    std::vector<ErrorTarget> errorTargets;
 
     // False: the passes trace the beams alone (the preview: the render's first passes without their
     // photons). The film's normalisation is the same, so the beams' image is the render's.
@@ -339,6 +357,10 @@ public:
     double estimatedRelativeError(int group) const;
     // Whether the estimate exists yet (two passes; with beams, a pass in every replicate).
     bool hasErrorEstimate() const { return film_.hasVariance(); }
+    // Each pass's beam scale and photon batches so far (RenderOptions::passPlan), and whether the
+    // plan adapts them.
+    std::vector<std::pair<double, int>> passPlan() const;
+    bool adaptivePassPlan() const { return adaptivePlan_; }
 
     // Checkpoints (binary): the film, the tallies, the statistics and the number of passes done.
     // Loading checks that the checkpoint was written by a render with the same scene, lens and
@@ -370,8 +392,17 @@ private:
     void addPassTallies(const std::vector<renderer::BeamJob>& beams, int replicate);
     std::uint64_t fingerprint() const;
     // The beams a path draws in a pass (renderer::beamCount at the path's rate).
-    int beamCount(int pass, size_t light, int slot) const;
+    // (The rate and count under a plan of every pass's sizes: the render's, or a checkpoint's.)
+    int beamCount(int pass, size_t light, int slot, const std::vector<renderer::PassSizes>& plan) const;
+    double beamRate(int pass, size_t light, int slot, const std::vector<renderer::PassSizes>& plan) const;
     int replicateOfPass(int pass) const { return pass % options_.beamReplicates; }
+    // The adaptive pass plan (PassPlan.h): the sizes of pass `pass` (planned two passes ahead, so
+    // that the ranks, which trace a pass ahead, learn them in time), the pass's photon hits
+    // weighted to the nominal pass, and the plan of the pass after next from the film's estimate.
+    const renderer::PassSizes& passSizes(int pass) const { return passSizes_.at(static_cast<size_t>(pass)); }
+    void startPass();
+    void weightPhotonHits(std::vector<renderer::BatchResult>& batches) const;
+    void planPassAfterNext();
 
     const LensSystem* lens_;
     RenderOptions options_;
@@ -390,6 +421,12 @@ private:
     Film film_;
     RenderStatistics statistics_;
     std::int64_t batchesDone_ = 0;
+    // Every pass's sizes so far and the next two's (PassPlan.h); with the adaptive plan, a hidden
+    // film layer (after layerNames_) that every beam also goes to, whose variance group is the
+    // beams' part of the error (−1: none).
+    std::vector<renderer::PassSizes> passSizes_;
+    bool adaptivePlan_ = false;
+    int beamsLayer_ = -1, beamsGroup_ = -1;
     // Per light, per slot × replicate: the beams drawn so far, where the next pass's continue the
     // replicate's sequence.
     std::vector<std::vector<std::uint64_t>> beamsDrawn_;

@@ -17,7 +17,7 @@
 namespace flare {
 
 namespace {
-constexpr std::uint64_t kCheckpointMagic = 0x3354504b43524c46ull;  // "FLRCKPT3"
+constexpr std::uint64_t kCheckpointMagic = 0x3454504b43524c46ull;  // "FLRCKPT4"
 // More passes than any render makes (2^24 passes of 65 536 photons: 10^12 photons); the bound keeps
 // a hostile checkpoint from making the load recount beams for hours.
 constexpr int kMaxCheckpointPasses = 1 << 24;
@@ -39,7 +39,7 @@ std::uint64_t Renderer::fingerprint() const {
                         static_cast<int>(std::lround(options_.testBeamShiftPx * 1024.0)), options_.maxAnalysedChains,
                         options_.smoothNeighbours, options_.tabulatedReflectance ? 1 : 0,
                         options_.strayLightSampling ? 1 : 0, film_.replicates(), options_.tracePhotons ? 1 : 0,
-                        options_.scatterSplits};
+                        options_.scatterSplits, adaptivePlan_ ? 1 : 0};
     mix(ints, sizeof ints);
     // (Only when set, so that the checkpoints of renders keep their fingerprints.)
     if (options_.ghostGroupsOnly) mix("ghost groups only", 17);
@@ -53,6 +53,12 @@ std::uint64_t Renderer::fingerprint() const {
                               options_.materials.irisAlbedo, lens_->sensorZMm(), lens_->iris().radiusMm()};
     mix(doubles, sizeof doubles);
     mix(lens_->name().data(), lens_->name().size());
+    // The adaptive plan's targets decide the passes' sizes.
+    if (adaptivePlan_)
+        for (const RenderOptions::ErrorTarget& t : options_.errorTargets) {
+            mix(&t.group, sizeof t.group);
+            mix(&t.relativeError, sizeof t.relativeError);
+        }
     // Which ghosts have layers of their own (--layers top:N or share:F keep some).
     for (const std::string& name : layerNames_) mix(name.data(), name.size() + 1);
     return hash;
@@ -69,6 +75,15 @@ void Renderer::saveCheckpoint(OutputFiles& outputs, const std::string& path) con
             out.write(reinterpret_cast<const char*>(sums), sizeof sums);
             out.write(reinterpret_cast<const char*>(t.replicateSums.data()), sizeof t.replicateSums);
         }
+    // Every pass's sizes and the next two's, as planned (PassPlan.h): a resumed render goes on
+    // with the plan the uninterrupted one would have made.
+    const std::uint64_t planned = passSizes_.size();
+    out.write(reinterpret_cast<const char*>(&planned), sizeof planned);
+    for (const renderer::PassSizes& p : passSizes_) {
+        const std::int32_t batches = p.photonBatches;
+        out.write(reinterpret_cast<const char*>(&p.beamScale), sizeof p.beamScale);
+        out.write(reinterpret_cast<const char*>(&batches), sizeof batches);
+    }
     film_.save(out);
     out.close();
     if (!out) throw std::runtime_error("cannot write checkpoint " + path + ": " + std::strerror(errno));
@@ -116,9 +131,30 @@ void Renderer::loadCheckpoint(const std::string& path) {
                 valid = valid && !bad(t.sumMeans) && !bad(t.sumSquaredMeans) &&
                         std::all_of(t.replicateSums.begin(), t.replicateSums.end(), [](double v) { return std::isfinite(v); });
         if (!valid) throw std::runtime_error("checkpoint: a statistic or tally is negative or not finite");
-        if (statistics.passes > kMaxCheckpointPasses ||
-            header[2] != static_cast<std::uint64_t>(statistics.passes) * static_cast<std::uint64_t>(options_.batchesPerPass))
-            throw std::runtime_error("checkpoint: its pass or batch count is out of range");
+        if (statistics.passes > kMaxCheckpointPasses) throw std::runtime_error("checkpoint: its pass count is out of range");
+        // The plan: the passes done and the next two, each within the plan's bounds, and the
+        // batches of the passes done the checkpoint's count.
+        std::uint64_t planned = 0;
+        in.read(reinterpret_cast<char*>(&planned), sizeof planned);
+        if (!in || planned != static_cast<std::uint64_t>(statistics.passes) + 2)
+            throw std::runtime_error("checkpoint: its pass plan does not cover its passes and the next two");
+        std::vector<renderer::PassSizes> plan(planned);
+        const int nominal = options_.tracePhotons ? options_.batchesPerPass : 0;
+        std::uint64_t batches = 0;
+        for (std::uint64_t p = 0; p < planned; ++p) {
+            std::int32_t count = 0;
+            in.read(reinterpret_cast<char*>(&plan[p].beamScale), sizeof plan[p].beamScale);
+            in.read(reinterpret_cast<char*>(&count), sizeof count);
+            plan[p].photonBatches = count;
+            const double scale = plan[p].beamScale;
+            const bool sizesValid =
+                adaptivePlan_ ? scale >= renderer::kMinPassScale - 1e-9 && scale <= renderer::kMaxPassScale + 1e-9 &&
+                                    count >= 1 && count <= renderer::kMaxPassScale * nominal + 1
+                              : scale == 1.0 && count == nominal;
+            if (!in || !sizesValid) throw std::runtime_error("checkpoint: a pass's planned size is out of range");
+            if (p < static_cast<std::uint64_t>(statistics.passes)) batches += static_cast<std::uint64_t>(count);
+        }
+        if (header[2] != batches) throw std::runtime_error("checkpoint: its batch count is not the one its passes planned");
         // Where each replicate's sequences go on: the beams its passes drew (which must be the
         // beams the checkpoint counts).
         std::vector<std::vector<std::uint64_t>> drawn = beamsDrawn_;
@@ -127,7 +163,7 @@ void Renderer::loadCheckpoint(const std::string& path) {
         for (int pass = 0; pass < statistics.passes; ++pass)
             for (size_t l = 0; l < lightStates_.size(); ++l)
                 for (int slot = 1; slot < lightStates_[l].slots; ++slot) {
-                    const int count = beamCount(pass, l, slot);
+                    const int count = beamCount(pass, l, slot, plan);
                     drawn[l][static_cast<size_t>(slot) * options_.beamReplicates + replicateOfPass(pass)] += count;
                     total += static_cast<std::uint64_t>(count);
                 }
@@ -141,6 +177,7 @@ void Renderer::loadCheckpoint(const std::string& path) {
         scatterSourceTallies_ = std::move(sourceTallies);
         batchesDone_ = static_cast<std::int64_t>(header[2]);
         beamsDrawn_ = std::move(drawn);
+        passSizes_ = std::move(plan);
     } catch (const std::runtime_error& e) {
         throw InputError(path, 0, e.what());
     }

@@ -151,7 +151,8 @@ void Renderer::runDistributedPass() {
     PassExchange& exchange = *exchange_;
     renderer::DistributedPasses& d = *distributed_;
     const int rank = exchange.rank(), ranks = exchange.size();
-    const int batches = static_cast<int>(batches_.size());  // 0 without photons
+    // (The current pass's batches, 0 without photons: the plan sizes each pass, startPass.)
+    auto batchCount = [&] { return static_cast<int>(batches_.size()); };
     const int width = options_.film.widthPx, height = options_.film.heightPx;
     const FilmFrame frame = renderer::filmFrame(options_.film);
     const renderer::PhotonBatchInputs batchInputs{*lens_, options_, tracer_, indexTable_, lightStates_, components_,
@@ -159,7 +160,7 @@ void Renderer::runDistributedPass() {
     // This rank's jobs of the current pass at rank 0's share `rootShare`, traced in parallel on its
     // threads; returns how many.
     auto traceShare = [&](std::vector<renderer::BeamJob>& beamJobs, int rootShare) {
-        const int beams = static_cast<int>(beamJobs.size());
+        const int beams = static_cast<int>(beamJobs.size()), batches = batchCount();
         std::vector<int> mine;
         for (int j = 0; j < beams + batches; ++j)
             if (jobRank(j, rootShare, ranks) == rank) mine.push_back(j);
@@ -178,7 +179,7 @@ void Renderer::runDistributedPass() {
     // What this rank traced of the pass, into the outboxes: each beam's part for every other
     // band owner, and to rank 0 the results it reads (rank 0's own stay where they are).
     auto encodeShare = [&](const std::vector<renderer::BeamJob>& beamJobs) {
-        const int beams = static_cast<int>(beamJobs.size());
+        const int beams = static_cast<int>(beamJobs.size()), batches = batchCount();
         for (auto& box : d.outboxes) box.clear();
         for (int j = 0; j < beams + batches; ++j) {
             if (jobRank(j, d.rootShare, ranks) != rank) continue;
@@ -212,12 +213,19 @@ void Renderer::runDistributedPass() {
         for (double& s : seconds) s /= threads;
         return seconds;
     };
-    // The next pass's share and bands, from rank 0 to every rank, at the pass's exchange (where
-    // every rank meets anyway).
+    // The next pass's share and bands, and its sizes (planned by rank 0 a pass earlier), from rank
+    // 0 to every rank, at the pass's exchange (where every rank meets anyway).
     auto broadcastNextSplit = [&] {
         std::vector<int> values(d.nextBandStart.begin(), d.nextBandStart.end());
         values[0] = d.nextRootShare;  // (bandStart[0] is 0)
+        const int next = statistics_.passes + 1;
+        passSizes_.resize(static_cast<size_t>(std::max<int>(next + 1, static_cast<int>(passSizes_.size()))));
+        values.push_back(static_cast<int>(std::lround(passSizes(next).beamScale * renderer::kBeamScaleSteps)));
+        values.push_back(passSizes(next).photonBatches);
         exchange.broadcastFromRoot(values);
+        passSizes_[static_cast<size_t>(next)] = {static_cast<double>(values[values.size() - 2]) / renderer::kBeamScaleSteps,
+                                                 values.back()};
+        values.resize(values.size() - 2);
         d.nextRootShare = values[0];
         d.nextBandStart.assign(values.begin(), values.end());
         d.nextBandStart[0] = 0;
@@ -231,6 +239,7 @@ void Renderer::runDistributedPass() {
     if (rank != 0) {
         // The pass's beam jobs drawn, and this rank's share traced and timed.
         auto drawAndTraceShare = [&] {
+            startPass();
             d.beamJobs = drawBeamJobs();
             const auto traceStart = std::chrono::steady_clock::now();
             const double cpuStart = renderer::cpuSeconds();
@@ -241,6 +250,7 @@ void Renderer::runDistributedPass() {
         // Every rank draws the pass's beam jobs (their counts and sequence points follow from the
         // seed and the passes before), so that job j is the same job on every rank.
         if (!d.ahead) drawAndTraceShare();
+        const int batches = batchCount();
         const auto encodeStart = std::chrono::steady_clock::now();
         const double encodeCpuStart = renderer::cpuSeconds();
         encodeShare(d.beamJobs);
@@ -280,6 +290,8 @@ void Renderer::runDistributedPass() {
     }
 
     const int replicate = replicateOfPass(statistics_.passes);
+    startPass();
+    const int batches = batchCount();
     std::vector<renderer::BeamJob> beamJobs = drawBeamJobs();
     const int beams = static_cast<int>(beamJobs.size());
     const long jobs = beams + batches;
@@ -320,6 +332,7 @@ void Renderer::runDistributedPass() {
     if (received != jobs)
         throw std::runtime_error("distributed render: pass " + std::to_string(statistics_.passes) + " gathered " +
                                  std::to_string(received) + " job results of " + std::to_string(jobs));
+    weightPhotonHits(batches_);
     d.othersTraceS = othersTraceS / (ranks - 1);
     d.othersJobs = (jobs - traced + (ranks - 2)) / (ranks - 1);
     exchangeCosts_.othersTraceS += d.othersTraceS;
@@ -397,6 +410,7 @@ void Renderer::runDistributedPass() {
     ++exchangeCosts_.passes;
     batchesDone_ += batches;
     ++statistics_.passes;
+    planPassAfterNext();
     statistics_.seconds += renderer::secondsSince(start);
 }
 

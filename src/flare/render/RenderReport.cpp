@@ -41,6 +41,11 @@ nlohmann::json renderReportJson(const Renderer& renderer, const std::string& sce
     j["unguided_photons"] = s.unguidedPhotons;
     j["passes"] = s.passes;
     j["wall_time_s"] = s.seconds;
+    // Each pass's sizes (RenderOptions::passPlan): the beams' scale of the planned rates and the
+    // photon batches.
+    nlohmann::json plan = nlohmann::json::array();
+    for (const auto& [beamScale, batches] : renderer.passPlan()) plan.push_back({beamScale, batches});
+    j["pass_plan"] = {{"adaptive", renderer.adaptivePassPlan()}, {"beam_scale_and_photon_batches", plan}};
     j["photons_per_second"] = s.seconds > 0.0 ? s.photons / s.seconds : 0.0;
     j["units"] = "power in W for the lights' power units; irradiance layers in W/m2";
 

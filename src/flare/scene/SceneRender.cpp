@@ -51,10 +51,11 @@ RenderOptions sceneRenderOptions(const Scene& scene, const LensSystem& lens, con
 }
 
 RenderStopRule RenderStopRule::make(const Scene& scene, const RenderOptions& options, std::int64_t photons,
-                                    double timeS, double targetError) {
+                                    double timeS, double targetError, double ghostTargetError) {
     RenderStopRule rule;
     rule.timeS = timeS;
     rule.targetError = targetError;
+    rule.ghostTargetError = ghostTargetError;
     const std::int64_t photonLimit = photons > 0 ? photons : (timeS > 0.0 ? 0 : scene.render.photons);
     const std::int64_t perPass = options.photonsPerPass();
     if (photonLimit > 0) rule.passesWanted = std::max<std::int64_t>(2, (photonLimit + perPass - 1) / perPass);
@@ -67,18 +68,26 @@ bool RenderStopRule::reached(const Renderer& renderer, double elapsedS) const {
     if (passesWanted > 0 && done >= passesWanted) return true;
     if (timeS > 0.0 && elapsedS >= timeS) return true;
     const int minimum = std::max(kMinPassesToStop, kMinPassesPerReplicateToStop * renderer.film().replicates());
-    if (!(targetError > 0.0) || done < minimum || !renderer.hasErrorEstimate()) return false;
+    if (!(targetError > 0.0 || ghostTargetError > 0.0) || done < minimum || !renderer.hasErrorEstimate()) return false;
     // The estimate scans the whole film: after the first passes it is checked every sixteenth of
     // the passes done (an overshoot of at most 1/16 of the work; a rule of the pass count, so the
     // same seed stops after the same pass).
     if (done >= 2 * kMinPassesToStop && done % std::max(1, done / 16) != 0) return false;
-    return renderer.estimatedRelativeError(kGroupFlare) <= targetError;
+    return (!(targetError > 0.0) || renderer.estimatedRelativeError(kGroupFlare) <= targetError) &&
+           (!(ghostTargetError > 0.0) || renderer.estimatedRelativeError(kGroupGhost) <= ghostTargetError);
+}
+
+std::vector<RenderOptions::ErrorTarget> RenderStopRule::errorTargets() const {
+    std::vector<RenderOptions::ErrorTarget> targets;
+    if (targetError > 0.0) targets.push_back({kGroupFlare, targetError});
+    if (ghostTargetError > 0.0) targets.push_back({kGroupGhost, ghostTargetError});
+    return targets;
 }
 
 double RenderStopRule::progress(const Renderer& renderer, double elapsedS) const {
     const RenderStatistics& s = renderer.statistics();
-    const std::int64_t photonLimit = passesWanted * renderer.options().photonsPerPass();
-    double fraction = photonLimit > 0 ? static_cast<double>(s.photons) / photonLimit : 0.0;
+    // (The photon limit is a number of nominal passes: the adaptive plan sizes each pass's photons.)
+    double fraction = passesWanted > 0 ? static_cast<double>(s.passes) / static_cast<double>(passesWanted) : 0.0;
     if (timeS > 0.0) fraction = std::max(fraction, elapsedS / timeS);
     const double error = renderer.estimatedRelativeError(kGroupFlare);
     if (targetError > 0.0 && error > 0.0 && renderer.hasErrorEstimate())

@@ -59,7 +59,7 @@ inline constexpr int kMinPassesToStop = 8;
 inline constexpr int kMinPassesPerReplicateToStop = 4;
 
 // When a render stops: at the target error (the estimated relative L2 error of the flare without
-// the direct image), the time or the photon count, whichever is reached first, and never before two
+// the direct image; and the ghost layer's at its own target, when given: both met), the time or the photon count, whichever is reached first, and never before two
 // passes (the target never before the estimate exists). Without a time or a photon count, the scene's
 // photon count is the limit, so that a target the scene cannot reach still ends. The target is
 // checked after every pass up to 16, then every (passes / 16)-th pass (the estimate scans the
@@ -68,10 +68,13 @@ struct RenderStopRule {
     std::int64_t passesWanted = 0;  // 0: no photon limit
     double timeS = 0.0;             // 0: no time limit
     double targetError = 0.0;       // 0: no target
+    double ghostTargetError = 0.0;  // the ghost layer's, besides (0: none)
 
-    // photons, timeS, targetError: 0 for none.
+    // photons, timeS, targetError, ghostTargetError: 0 for none.
     static RenderStopRule make(const Scene& scene, const RenderOptions& options, std::int64_t photons, double timeS,
-                               double targetError);
+                               double targetError, double ghostTargetError = 0.0);
+    // The targets as the adaptive pass plan takes them (RenderOptions::errorTargets).
+    std::vector<RenderOptions::ErrorTarget> errorTargets() const;
     bool reached(const Renderer& renderer, double elapsedS) const;
     // The share of the work done, in [0, 1], whichever limit comes first: the photon count, the
     // time, or the target error (whose square falls as one over the passes for photons, faster

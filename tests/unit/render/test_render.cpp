@@ -75,6 +75,10 @@ RenderOptions optionsFor(const Scene& scene, const LensSystem& lens, RenderOptio
     // of the beams' part) more than large ones.
     o.batchesPerPass = 16;
     o.beamsPerPass = 32;
+    // Fixed passes: these tests compare the estimators at known sample sizes (the adaptive plan
+    // would starve the photons of a scene without scattered light, leaving rare unguided paths
+    // unsampled; test_pass_plan.cpp checks the plan's own images).
+    o.passPlan = RenderOptions::PassPlan::Fixed;
     o.film.widthPx = scene.sensor.widthPx;
     o.film.heightPx = scene.sensor.heightPx;
     o.film.widthMm = lens.sensor().widthMm;
@@ -724,12 +728,14 @@ TEST(Render, CheckpointWithANonFiniteValueIsRefused) {
     in.close();
 
     // The checkpoint: a 3-word header, the statistics, per tally the batches' sum and sum of
-    // squares and the replicates' sums (kMaxReplicates doubles), then the film (a magic word,
+    // squares and the replicates' sums (kMaxReplicates doubles), the pass plan (a count, then per
+    // pass done and the next two a double and an int32), then the film (a magic word,
     // seven int32: width, height, ...; per layer its kernel (two int32, a double and a byte); and
     // per tile a presence byte followed by its doubles).
     const size_t tallies = 3 * sizeof(std::uint64_t) + sizeof(RenderStatistics);
     const size_t film = tallies + (2 + kMaxReplicates) * sizeof(double) *
-                                      (first.tallies().size() + first.layerTallies().size() + first.scatterSourceTallies().size());
+                                      (first.tallies().size() + first.layerTallies().size() + first.scatterSourceTallies().size()) +
+                        sizeof(std::uint64_t) + (first.statistics().passes + 2) * (sizeof(double) + sizeof(std::int32_t));
     std::int32_t size[2];
     std::memcpy(size, good.data() + film + sizeof(std::uint64_t), sizeof size);
     ASSERT_EQ(size[0], o.film.widthPx) << "the film is not where this test expects it";

@@ -119,11 +119,16 @@ TEST(RenderDistributed, RanksGiveBitwiseTheFilmTalliesAndStatisticsOfOneRenderer
     const LensSystem lens = buildSceneLens(scene);
     RenderOptions options = test::sceneRenderOptions(scene, lens, RenderOptions::Mode::Guided);
     options.perGhostLayers = true;
-    constexpr int kPasses = 3;
+    // (Five passes: the adaptive pass plan sizes passes 3 and 4 from the film, which rank 0 alone
+    // holds; the others learn each pass's sizes a pass ahead.)
+    constexpr int kPasses = 5;
     Renderer alone(lens, scene.lights, options);
     for (int p = 0; p < kPasses; ++p) alone.runPass();
     ASSERT_GT(alone.statistics().beams, 0);
     ASSERT_GT(alone.statistics().unguidedPhotons, 0);
+    ASSERT_TRUE(alone.adaptivePassPlan());
+    const auto plan = alone.passPlan();
+    EXPECT_TRUE(plan[3].first != 1.0 || plan[3].second != options.batchesPerPass) << "the plan kept the nominal pass";
 
     // (Without a pass limit the other ranks trace a pass ahead that is never sent: the last.)
     for (const auto& [size, passLimit] : {std::pair{2, 0}, std::pair{3, 0}, std::pair{2, kPasses}}) {
@@ -162,6 +167,7 @@ TEST(RenderDistributed, RanksGiveBitwiseTheFilmTalliesAndStatisticsOfOneRenderer
         EXPECT_EQ(b.beamRays, a.beamRays);
         EXPECT_EQ(b.unguidedEnteredPowerW, a.unguidedEnteredPowerW);
         EXPECT_EQ(b.passes, a.passes);
+        EXPECT_EQ(root.passPlan(), plan);
         for (int r = 1; r < size; ++r) EXPECT_EQ(renderers[r]->statistics().passes, kPasses);
     }
 }
