@@ -1,6 +1,7 @@
 #include "FuzzTargets.h"
 #include "FuzzTextSeeds.h"
 
+#include <atomic>
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
@@ -47,6 +48,8 @@ namespace {
 
 // Keeps the optimiser from dropping reads whose only purpose is to let ASan check them.
 volatile double gSink = 0.0;
+// Inputs a loader accepted (acceptedInputCount).
+std::atomic<long> gAccepted{0};
 
 // The file the loaders read an input from (they take paths): an anonymous file in memory
 // (memfd_create), named by /proc/self/fd/N, rewritten for every input and gone with the process,
@@ -305,6 +308,8 @@ bool declaresLargeWindow(std::string_view data) {
 }
 }  // namespace
 
+long acceptedInputCount() { return gAccepted.load(); }
+
 void exrInput(std::string_view data) {
     if (declaresAttributeLongerThanFile(data) || declaresLargeWindow(data)) return;
     static const MemoryFile file("fuzz.exr");
@@ -312,6 +317,7 @@ void exrInput(std::string_view data) {
     file.write(data);
     try {
         for (const ImageLayer& layer : readExr(path)) touch(layer.rgb);
+        ++gAccepted;
     } catch (const InputError&) {
     }
 }
@@ -326,6 +332,7 @@ void vdbInput(std::string_view data) {
     } catch (const InputError&) {
         return;
     }
+    ++gAccepted;
     // A loaded grid must be usable as a scene's volume: its statistics, its active boxes (the
     // majorant grid's input) and lookups inside, at the edges of and outside its bounds.
     const glm::dvec3 lo = grid.boundsMinMm(), hi = grid.boundsMaxMm();
@@ -347,15 +354,24 @@ void vdbInput(std::string_view data) {
 
 void checkpointInput(std::string_view data) {
     CheckpointFixture& f = checkpointFixture();
-    if (data.size() >= 8 && std::memcmp(data.data(), "FLRFILF1", 8) == 0) {
+    // (Any version of the film's magic, "FLRFILF" and a digit: Film::load checks the version. The
+    // version once was 1 here while the film wrote 6, and every bare film went to loadCheckpoint.)
+    if (data.size() >= 8 && std::memcmp(data.data(), "FLRFILF", 7) == 0) {
         // A bare film, as Film::save writes it inside a checkpoint.
-        Film film(f.options.film, static_cast<int>(f.renderer->layerNames().size()));
+        // Shaped as the render's film (Film::load refuses any other shape): its layers (with,
+        // under the adaptive pass plan, the hidden beams layer), its variance groups (a group's
+        // layers matter to what is added, not to what is loaded) and its replicates.
+        const Film& renders = f.renderer->film();
+        Film film(renders.settings(), renders.layerCount());
+        while (film.varianceGroupCount() < renders.varianceGroupCount()) film.addVarianceGroup({});
+        film.setReplicates(renders.replicates());
         std::istringstream in(std::string(data), std::ios::binary);
         try {
             film.load(in);
         } catch (const std::runtime_error&) {
             return;
         }
+        ++gAccepted;
         for (int l = 0; l < film.layerCount(); ++l) touch(film.irradianceXyz(l, 1000.0));
         touch(film.varianceRgb());
         return;
@@ -368,6 +384,7 @@ void checkpointInput(std::string_view data) {
     } catch (const InputError&) {
         return;
     }
+    ++gAccepted;
     // A loaded checkpoint must be usable: read every output and continue the render by a pass.
     for (int l = 0; l < static_cast<int>(f.renderer->layerNames().size()); ++l) touch(f.renderer->layerXyz(l));
     touch(f.renderer->film().varianceRgb());

@@ -36,6 +36,12 @@ void checkpointInput(std::string_view data);
 // densities read.
 void vdbInput(std::string_view data);
 
+// How many inputs the exr, checkpoint and vdb bodies' loaders have accepted in this process. The
+// replay test's evidence that the bytes reach the loaders through the memory file these bodies
+// write them to: were it to fail, every input would be refused as bad input and nothing else would
+// show it.
+long acceptedInputCount();
+
 // Writes seed inputs that cannot be copied from the source tree: small EXRs (float and half,
 // scanline and tiled, several compressions, layers, offset and negative data windows), a checkpoint and a bare film of the render
 // checkpointInput uses, small .vdb files (float grids as flare writes them, compressed and

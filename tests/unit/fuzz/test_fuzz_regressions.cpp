@@ -80,13 +80,23 @@ TEST(FuzzRegressions, SeedCorpusRunsThroughTheTargets) {
     const fs::path dir = test::processTempDir("flare_fuzz_seeds_test");
     fs::remove_all(dir);
     EXPECT_GT(fuzz::writeGeneratedSeeds(dir.string()), 0);
-    EXPECT_GE(replayAll(filesIn(dir / "exr"), fuzz::exrInput), 9);
+    // Every generated EXR and checkpoint is a good file, and so is every shipped volume: each must
+    // reach its loader and be accepted (the bodies hand the loaders a memory file's path).
+    long accepted = fuzz::acceptedInputCount();
+    const int exrSeeds = replayAll(filesIn(dir / "exr"), fuzz::exrInput);
+    EXPECT_GE(exrSeeds, 9);
+    EXPECT_EQ(fuzz::acceptedInputCount() - accepted, exrSeeds);
+    accepted = fuzz::acceptedInputCount();
     EXPECT_EQ(replayAll(filesIn(dir / "checkpoint"), fuzz::checkpointInput), 2);
+    EXPECT_EQ(fuzz::acceptedInputCount() - accepted, 2);
     EXPECT_GE(replayAll(filesIn(dir / "vdb"), fuzz::vdbInput), 10);
     // writeGeneratedSeeds checks that each .zmx and .agf seed parses.
     EXPECT_GE(replayAll(filesIn(dir / "zmx"), fuzz::zmxInput), 10);
     EXPECT_EQ(replayAll(filesIn(dir / "agf"), fuzz::agfInput), 7);
-    EXPECT_GE(replayAll(filesIn(test::sourcePath("volumes"), ".vdb"), fuzz::vdbInput), 4);
+    accepted = fuzz::acceptedInputCount();
+    const int volumes = replayAll(filesIn(test::sourcePath("volumes"), ".vdb"), fuzz::vdbInput);
+    EXPECT_GE(volumes, 4);
+    EXPECT_EQ(fuzz::acceptedInputCount() - accepted, volumes);
     fs::remove_all(dir);
 }
 
