@@ -63,9 +63,20 @@ bool Iris::contains(double x, double y) const {
     // Rotate into the frame of the edge whose sector holds the point (mid-normal along +x).
     const double phi = std::atan2(y, x) - rotationRad_;
     const double sector = std::floor(phi / sectorRad_);
-    const double mid = rotationRad_ + (sector + 0.5) * sectorRad_;
-    const double xe = x * std::cos(mid) + y * std::sin(mid);
-    const double ye = -x * std::sin(mid) + y * std::cos(mid);
+    // The sectors' mid-normals are margin()'s, computed from the same angle: the same cosine and
+    // sine without evaluating them per ray (a tenth of a beam's tracing went to them). A sector
+    // outside [0, blades) (the rotation moves the angles' range) evaluates them.
+    double cosMid, sinMid;
+    if (sector >= 0.0 && sector < blades_) {
+        cosMid = normalX_[static_cast<size_t>(sector)];
+        sinMid = normalY_[static_cast<size_t>(sector)];
+    } else {
+        const double mid = rotationRad_ + (sector + 0.5) * sectorRad_;
+        cosMid = std::cos(mid);
+        sinMid = std::sin(mid);
+    }
+    const double xe = x * cosMid + y * sinMid;
+    const double ye = -x * sinMid + y * cosMid;
     if (xe <= apothemMm_) return true;
     if (arcRadiusMm_ == 0.0) return false;
     const double dx = xe - arcCentreMm_;

@@ -213,6 +213,9 @@ void BeamRim::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3& 
         const int r1 = std::min(rowHi, static_cast<int>(std::floor(s.rowMax - 0.5 - jitterPx.y)));
         const int c0 = std::max(columnLo, static_cast<int>(std::ceil(s.columnMin - 0.5 - jitterPx.x)));
         const int c1 = std::min(columnHi, static_cast<int>(std::floor(s.columnMax - 0.5 - jitterPx.x)));
+        // The segment's rows in this band (at most Film::kBandRows), handed to the SIMD loop at once.
+        detail::RimRowSpan spans[Film::kBandRows];
+        size_t count = 0;
         for (int row = r0; row <= r1; ++row) {
             // The row's span where the pixel can pass the tests below, from their three linear
             // constraints in x (within the band of the reach, on the wedge's side of either
@@ -236,16 +239,18 @@ void BeamRim::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3& 
             if (!(lo <= hi)) continue;
             const int first = std::max(c0, static_cast<int>(std::max(std::ceil(lo - 0.5 - jitterPx.x) - 1.0, -1e9)));
             const int last = std::min(c1, static_cast<int>(std::min(std::floor(hi - 0.5 - jitterPx.x) + 1.0, 1e9)));
+            if (first > last) continue;
             // The pixels themselves, several at a time (BeamRimRow.h: the same arithmetic).
-            detail::RimRowSpan span;
+            detail::RimRowSpan& span = spans[count++];
             span.y = y;
             span.jitterX = jitterPx.x;
             span.first = first;
             span.last = last;
             span.reach = reach;
             span.inverseScale = inverseScale;
-            detail::addRimRow(s, span, scale, rows + (static_cast<size_t>(row - rowBegin) * widthPx + first) * 3);
+            span.row = rows + (static_cast<size_t>(row - rowBegin) * widthPx + first) * 3;
         }
+        if (count > 0) detail::addRimRows(s, spans, count, scale);
     }
 }
 

@@ -9,6 +9,8 @@
 // the same bits either way (test_beam_rows.cpp compares them).
 #pragma once
 
+#include <cstddef>
+
 #include <glm/vec3.hpp>
 
 #include "flare/render/BeamRim.h"
@@ -23,7 +25,12 @@ struct RimRowSpan {
     int first = 0, last = -1;
     double reach = 0.0;    // FresnelEdgeExcess::kReach × w, in pixels
     double inverseScale = 0.0;  // 1 / w
+    double* row = nullptr;      // column `first`'s xyz (addRimRows)
 };
+
+// A segment's rows, each as addRimRow with its span's `row`: one call, so that the segment's
+// constants are set up once rather than once per row.
+void addRimRows(const BeamRim::Segment& s, const RimRowSpan* spans, size_t count, const glm::dvec3& scale);
 
 // Adds the segment's ringing times `scale` over the span (BeamRim::rasterise's per-pixel tests and
 // value).

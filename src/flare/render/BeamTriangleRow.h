@@ -10,9 +10,23 @@
 // same bits as from the scalar loop (test_beam_rows.cpp compares them).
 #pragma once
 
+#include <cstddef>
+
 #include <glm/vec3.hpp>
 
 namespace flare::detail {
+
+// One row of a triangle: the plane's value at x = 0 on the row, its columns [first, last], and
+// `row` pointing at column `first`'s x.
+struct TriangleRowSpan {
+    double rowValue = 0.0;
+    int first = 0, last = -1;
+    double* row = nullptr;
+};
+
+// The rows of one triangle (one slope gx, one scale), each as addTriangleRow: one call, so that
+// the lanes' set-up is paid once per triangle rather than once per row.
+void addTriangleRows(const TriangleRowSpan* spans, size_t count, double gx, const glm::dvec3& scale);
 
 // Adds (rowValue + gx · (column + 0.5)) · scale to the xyz of columns [first, last], `row`
 // pointing at column `first`'s x.

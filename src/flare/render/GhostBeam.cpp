@@ -26,6 +26,8 @@ namespace {
 constexpr double kSmallImagePx2 = 1.0;
 // The points a small triangle's power is split over: twice its longest side in pixels, within.
 constexpr int kSmallPointsMin = 4, kSmallPointsMax = 64;
+// A triangle's rows handed to the SIMD loop at a time (Film::kBandRows at most reach it in a band).
+constexpr size_t kSpansPerCall = 32;
 
 double signedArea(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c) {
     return 0.5 * ((b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y));
@@ -496,6 +498,10 @@ void GhostBeam::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3
         const double longSlope = (bottom.x - top.x) / (bottom.y - top.y);
         const double upperSlope = mid.y > top.y ? (mid.x - top.x) / (mid.y - top.y) : 0.0;
         const double lowerSlope = bottom.y > mid.y ? (bottom.x - mid.x) / (bottom.y - mid.y) : 0.0;
+        // The spans' pixels, several values at a time (BeamTriangleRow.h: the same arithmetic), a
+        // triangle's rows in one call.
+        detail::TriangleRowSpan spans[kSpansPerCall];
+        size_t count = 0;
         for (int row = first; row <= last; ++row) {
             const double y = row + 0.5;
             // The long edge top→bottom, and the short edge the scanline crosses.
@@ -504,10 +510,11 @@ void GhostBeam::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3
             const double xl = std::min(along, across), xr = std::max(along, across);
             const int c1 = std::max(columnLo, static_cast<int>(std::ceil(xl - 0.5)));
             const int c2 = std::min(columnHi, static_cast<int>(std::ceil(xr - 0.5)) - 1);
-            // The span's pixels, several values at a time (BeamTriangleRow.h: the same arithmetic).
-            if (c1 <= c2)
-                detail::addTriangleRow(c0 + gy * y, gx, c1, c2, scale, rows + (static_cast<size_t>(row - rowBegin) * width + c1) * 3);
+            if (c1 > c2) continue;
+            spans[count++] = {c0 + gy * y, c1, c2, rows + (static_cast<size_t>(row - rowBegin) * width + c1) * 3};
+            if (count == kSpansPerCall) detail::addTriangleRows(spans, count, gx, scale), count = 0;
         }
+        if (count > 0) detail::addTriangleRows(spans, count, gx, scale);
     }
     rim_.rasterise(band, jitterPx, scale, width, height, rows);
 }

@@ -88,5 +88,39 @@ TEST(Iris, MarginIsNegativeExactlyInsideAndContinuous) {
     }
 }
 
+// contains() takes each sector's mid-normal from a table instead of evaluating its cosine and sine
+// per point: against the straight-bladed polygon evaluated the plain way (the sector by angle,
+// the point turned into its frame with std::cos and std::sin), point for point, at rotations
+// that move the sectors' indices out of [0, blades) and with points crowded onto the edges.
+TEST(Iris, StraightBladesDecideAsTheSectorsTrigonometry) {
+    for (int blades : {3, 5, 6, 8}) {
+        for (double rotation : {0.0, 0.3, -2.5, 2.0, 7.1}) {
+            const Iris iris(blades, rotation, 0.0, 5.0);
+            const double sector = 2.0 * std::numbers::pi / blades;
+            auto reference = [&](double x, double y) {
+                const double r2 = x * x + y * y;
+                if (r2 > iris.circumradiusMm() * iris.circumradiusMm()) return false;
+                if (r2 <= iris.apothemMm() * iris.apothemMm()) return true;
+                const double k = std::floor((std::atan2(y, x) - rotation) / sector);
+                const double mid = rotation + (k + 0.5) * sector;
+                return x * std::cos(mid) + y * std::sin(mid) <= iris.apothemMm();
+            };
+            std::int64_t inside = 0, outside = 0;
+            for (int n = 0; n < 20000; ++n) {
+                // On rays through the corners and the edges' middles too, at radii about the edge.
+                const double angle = n % 4 == 0 ? rotation + (n / 4 % blades) * 0.5 * sector : 0.000731 * n;
+                const double edge = iris.apothemMm() / std::max(0.2, std::cos(std::remainder(angle - rotation - 0.5 * sector, sector)));
+                const double r = edge * (1.0 + (n % 7 - 3) * 1e-13 + ((n / 7) % 11 - 5) * 0.01);
+                const double x = r * std::cos(angle), y = r * std::sin(angle);
+                const bool in = iris.contains(x, y);
+                ASSERT_EQ(in, reference(x, y)) << blades << " blades, rotation " << rotation << ", point " << n;
+                (in ? inside : outside) += 1;
+            }
+            EXPECT_GT(inside, 5000);
+            EXPECT_GT(outside, 5000);
+        }
+    }
+}
+
 }  // namespace
 }  // namespace flare

@@ -161,5 +161,74 @@ TEST(BeamTriangleRow, SameBitsAsTheScalarLoopOnEveryInstructionSet) {
     });
 }
 
+// The batched calls (a triangle's or a segment's rows in one call, their set-up shared) against
+// the scalar loop row by row: rows of different lengths, y and values, one slope or segment.
+TEST(BeamTriangleRow, ATrianglesRowsInOneCallAreTheScalarRows) {
+    forEachTarget([](const std::string& target) {
+        Rng rng(4409, 0);
+        long compared = 0;
+        for (int trial = 0; trial < 300; ++trial) {
+            const double gx = (rng.uniform() - 0.5) * std::pow(10.0, 4.0 * rng.uniform() - 3.0);
+            const glm::dvec3 scale(rng.uniform(), 0.5 + rng.uniform(), 1e-3 * rng.uniform());
+            const int rows = 1 + trial % 32, width = 64;
+            std::vector<double> simd(static_cast<size_t>(rows) * width * 3);
+            for (double& v : simd) v = rng.uniform() < 0.2 ? -0.0 : rng.uniform() - 0.5;
+            std::vector<double> scalar = simd;
+            std::vector<detail::TriangleRowSpan> spans;
+            for (int r = 0; r < rows; ++r) {
+                const int first = static_cast<int>(20.0 * rng.uniform());
+                const int last = first + static_cast<int>(41.0 * rng.uniform()) - 1;  // empty rows too
+                const double rowValue = -gx * (first + 10.0 * rng.uniform()) + (rng.uniform() - 0.3);
+                spans.push_back({rowValue, first, last, simd.data() + (static_cast<size_t>(r) * width + first) * 3});
+                detail::addTriangleRowScalar(rowValue, gx, first, last, scale,
+                                             scalar.data() + (static_cast<size_t>(r) * width + first) * 3);
+            }
+            detail::addTriangleRows(spans.data(), spans.size(), gx, scale);
+            for (size_t i = 0; i < simd.size(); ++i, ++compared)
+                ASSERT_TRUE(sameBits(simd[i], scalar[i])) << target << ": trial " << trial << " value " << i;
+        }
+        EXPECT_GT(compared, 500000) << target;
+    });
+}
+
+TEST(BeamRimRow, ASegmentsRowsInOneCallAreTheScalarRows) {
+    forEachTarget([](const std::string& target) {
+        Rng rng(5501, 0);
+        long touched = 0, compared = 0;
+        for (int segment = 0; segment < 200; ++segment) {
+            const BeamRim::Segment s = randomSegment(rng);
+            const double w = 0.3 + 4.0 * rng.uniform();
+            const glm::dvec3 scale(0.3 + rng.uniform(), 1.0, 0.5 * rng.uniform());
+            const int rows = 1 + segment % 32, width = 200;
+            std::vector<double> simd(static_cast<size_t>(rows) * width * 3);
+            for (double& v : simd) v = rng.uniform() < 0.3 ? -0.0 : rng.uniform() - 0.5;
+            std::vector<double> scalar = simd;
+            const std::vector<double> before = simd;
+            std::vector<detail::RimRowSpan> spans;
+            const double jitterX = 2.0 * rng.uniform() - 1.0;
+            for (int r = 0; r < rows; ++r) {
+                detail::RimRowSpan span;
+                span.reach = FresnelEdgeExcess::kReach * w;
+                span.inverseScale = 1.0 / w;
+                span.jitterX = jitterX;
+                span.y = std::floor(s.a.y - 20.0 + 40.0 * rng.uniform()) + 0.5 + (2.0 * rng.uniform() - 1.0);
+                span.first = static_cast<int>(40.0 + 60.0 * rng.uniform());
+                span.last = span.first + static_cast<int>(rng.uniform() * 100.0) - 1;
+                double* row = simd.data() + (static_cast<size_t>(r) * width + span.first) * 3;
+                span.row = row;
+                spans.push_back(span);
+                detail::addRimRowScalar(s, span, scale, scalar.data() + (row - simd.data()));
+            }
+            detail::addRimRows(s, spans.data(), spans.size(), scale);
+            for (size_t i = 0; i < simd.size(); ++i, ++compared) {
+                ASSERT_TRUE(sameBits(simd[i], scalar[i])) << target << ": segment " << segment << " value " << i;
+                if (!sameBits(scalar[i], before[i])) ++touched;
+            }
+        }
+        EXPECT_GT(touched, 10000) << target;
+        EXPECT_GT(compared, 1000000) << target;
+    });
+}
+
 }  // namespace
 }  // namespace flare
