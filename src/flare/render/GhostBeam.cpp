@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <cstring>
 #include <stdexcept>
 
@@ -28,6 +29,8 @@ constexpr double kSmallImagePx2 = 1.0;
 constexpr int kSmallPointsMin = 4, kSmallPointsMax = 64;
 // A triangle's rows handed to the SIMD loop at a time (Film::kBandRows at most reach it in a band).
 constexpr size_t kSpansPerCall = 32;
+// How many triangles ahead rasterise asks for a triangle's memory.
+constexpr int kPrefetchAhead = 4;
 
 double signedArea(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c) {
     return 0.5 * ((b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y));
@@ -262,13 +265,18 @@ void GhostBeam::bucketByBand() {
     std::vector<int> counts(bands + 1, 0);
     for (const BeamTriangle& t : triangles_) ++counts[bandRange(t).first + 1];
     for (int b = 0; b < bands; ++b) counts[b + 1] += counts[b];
-    std::vector<BeamTriangle> sorted(triangles_.size());
+    // (The order first, then the triangles copied in it: a vector of them sized up front would be
+    // zeroed first, a tenth of the beam's build.)
+    std::vector<int> order(triangles_.size());
     std::vector<std::uint32_t> sortedSeeds(seedIndices_.size());
     for (size_t n = 0; n < triangles_.size(); ++n) {
         const int at = counts[bandRange(triangles_[n]).first]++;
-        sorted[at] = triangles_[n];
+        order[at] = static_cast<int>(n);
         if (!seedIndices_.empty()) sortedSeeds[at] = seedIndices_[n];
     }
+    std::vector<BeamTriangle> sorted;
+    sorted.reserve(triangles_.size());
+    for (const int n : order) sorted.push_back(triangles_[n]);
     triangles_.swap(sorted);
     seedIndices_.swap(sortedSeeds);
     bandStart_.assign(bands + 1, 0);
@@ -438,9 +446,18 @@ void GhostBeam::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3
     const int rowLo = std::max(rowBegin, static_cast<int>(std::ceil(-0.5 - jitterPx.y)));
     const int rowHi = std::min(rowEnd - 1, static_cast<int>(std::ceil(height - 0.5 - jitterPx.y)) - 1);
 
-    for (int k = bandStart_[band]; k < bandStart_[band + 1]; ++k) {
+    const int end = bandStart_[band + 1];
+    for (int k = bandStart_[band]; k < end; ++k) {
         const int n = bandTriangles_[k];
         const BeamTriangle& t = triangles_[n];
+        // The triangles were written by another task, long before: without a hint, the first read
+        // of each (its pixels, about 170 bytes on) waits for memory.
+        if (k + kPrefetchAhead < end) {
+            const char* next = reinterpret_cast<const char*>(&triangles_[bandTriangles_[k + kPrefetchAhead]]);
+            __builtin_prefetch(next + offsetof(BeamTriangle, pixel));
+            __builtin_prefetch(next + offsetof(BeamTriangle, irradiance));
+            __builtin_prefetch(next + offsetof(BeamTriangle, small));
+        }
         if (t.small) {
             // Its power over points spread evenly over its image (a Fibonacci lattice on the unit
             // square, shifted at random, mapped uniformly onto the triangle), as many as its
