@@ -36,6 +36,17 @@ public:
         }
     }
     bool contains(std::uint64_t key) const { return find(key) >= 0; }
+    // Room for `entries` keys without growing (an empty index only): a beam's mesh knows about how
+    // many vertices and edges it will hold, and growing by doubling rehashed each key about twice.
+    void reserve(size_t entries) {
+        if (size_ != 0) return;
+        int log2 = 6;
+        while ((size_t{1} << log2) < 2 * entries + 2) ++log2;
+        if ((size_t{1} << log2) <= keys_.size()) return;
+        keys_.assign(size_t{1} << log2, kEmpty);
+        values_.assign(keys_.size(), -1);
+        shift_ = 64 - log2;
+    }
     bool empty() const { return size_ == 0; }
 
 private:

@@ -42,6 +42,7 @@ BeamRim BeamRim::build(const std::vector<RimTriangle>& triangles, double edgeSca
     // Vertex ids, and how many triangles hold each edge (open addressing, KeyIndex: node-based
     // maps' allocations cost more than the rim's own work).
     KeyIndex idOf;
+    idOf.reserve(triangles.size());
     int vertexCount = 0;
     auto id = [&](const glm::dvec2& p) {
         const auto [vertex, inserted] = idOf.emplace(keyIndexKey(vertexKey(p)), vertexCount);
@@ -53,7 +54,9 @@ BeamRim BeamRim::build(const std::vector<RimTriangle>& triangles, double edgeSca
         int triangle = 0, corner = 0;  // the first triangle holding it: edge corner → corner + 1
     };
     KeyIndex edgeOf;  // (smaller id, larger id) → its EdgeUse (never ~0: ids are below 2³¹)
+    edgeOf.reserve(2 * triangles.size());
     std::vector<EdgeUse> edges;
+    edges.reserve(2 * triangles.size());
     std::vector<std::array<int, 3>> ids(triangles.size());
     for (size_t n = 0; n < triangles.size(); ++n)
         for (int k = 0; k < 3; ++k) ids[n][k] = id(triangles[n].v[k].pupilMm);

@@ -92,6 +92,8 @@ GhostBeam GhostBeam::build(const BundleTracer& tracer, const PupilGrid& grid, co
     std::vector<glm::dmat2> jacobians(mesh.triangles.size());
     // (Open addressing, KeyIndex: a node-based map's allocations were a tenth of the beam's build.)
     KeyIndex idOf;
+    idOf.reserve(mesh.triangles.size());  // (a lattice mesh has about half as many vertices)
+    vertices.reserve(mesh.triangles.size());
     auto vertexId = [&](const glm::dvec2& p) {
         std::uint64_t hx, hy;
         std::memcpy(&hx, &p.x, sizeof hx);
@@ -507,8 +509,15 @@ void GhostBeam::rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3
         const double gy = ((tp[2] - tp[0]) * (v[1].x - v[0].x) - (tp[1] - tp[0]) * (v[2].x - v[0].x)) / det;
         const double c0 = tp[0] - gx * v[0].x - gy * v[0].y;
         // Sort by y for the spans.
+        // (Three compare-and-swaps of strict comparisons: stable, as std::sort's insertion sort of
+        // three is, so ties keep their order.)
         int order[3] = {0, 1, 2};
-        std::sort(order, order + 3, [&](int a, int b) { return v[a].y < v[b].y; });
+        auto swapIfBelow = [&](int i, int j) {
+            if (v[order[j]].y < v[order[i]].y) std::swap(order[i], order[j]);
+        };
+        swapIfBelow(0, 1);
+        swapIfBelow(1, 2);
+        swapIfBelow(0, 1);
         const glm::dvec2 top = v[order[0]], mid = v[order[1]], bottom = v[order[2]];
         // The edges' x per unit y (a scanline crosses the upper short edge only if it is not
         // horizontal, and likewise the lower).
