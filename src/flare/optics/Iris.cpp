@@ -64,8 +64,8 @@ bool Iris::contains(double x, double y) const {
     const double phi = std::atan2(y, x) - rotationRad_;
     const double sector = std::floor(phi / sectorRad_);
     // The sectors' mid-normals are margin()'s, computed from the same angle: the same cosine and
-    // sine without evaluating them per ray (in the preview's profile, a sixth of contains()'s samples). A sector
-    // outside [0, blades) (the rotation moves the angles' range) evaluates them.
+    // sine without evaluating them per ray (in the preview's profile, a sixth of contains()'s
+    // samples). A sector outside [0, blades) (the rotation moves the angles' range) evaluates them.
     double cosMid, sinMid;
     if (sector >= 0.0 && sector < blades_) {
         cosMid = normalX_[static_cast<size_t>(sector)];
