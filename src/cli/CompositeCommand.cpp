@@ -41,6 +41,9 @@ constexpr double kDefaultPsfTolerance = 0.05;
 // their cluster's centroid share one far field (StarburstOptions::clusterFarFields; docs/
 // composite.md says what it costs in accuracy).
 constexpr double kDefaultFarCluster = 0.5;
+// Beams per pass and region light on average, shared by power: on the night plate the estimated
+// ghost error of 256 equal beams (12 %) is reached by power with about 160 (docs/BENCHMARKS.md).
+constexpr int kDefaultRegionBeams = 160;
 
 struct CompositeOptions {
     std::string plate;
@@ -61,7 +64,7 @@ struct CompositeOptions {
     double farCluster = kDefaultFarCluster;
     LayersOption layers;
     int passes = PreviewBudget::kDefaultPasses;
-    int beamsPerPass = 0;  // 0: 256 per region light, 64 per cell (--cell-px gives many more lights)
+    int beamsPerPass = 0;  // 0: 160 per region light, 64 per cell (--cell-px gives many more lights)
     double timeS = 0.0;
     double targetError = 0.0;
     long long seed = -1;
@@ -504,8 +507,8 @@ void addCompositeCommand(CLI::App& app) {
     time->excludes(passes)->excludes(error);
     error->excludes(passes);
     c->add_option("--beams-per-pass", o->beamsPerPass,
-                  "beams per pass and light (default 256 per region light, 64 per cell with --cell-px: many "
-                  "lights share the frame, and each light's error matters in proportion to its power)")
+                  "beams per pass and light, on average: the pass's beams are shared among the lights by their power "
+                  "(default 160 per region light, 64 per cell with --cell-px)")
         ->check(CLI::Range(8, 32768));
     c->add_flag("--equal-beams", o->equalBeams,
                 "every light --beams-per-pass beams a pass (by default the pass's beams are shared among the lights "
@@ -518,7 +521,7 @@ void addCompositeCommand(CLI::App& app) {
     c->callback([o, c] {
         o->pngGiven = c->count("--png") > 0;
         o->cells = c->count("--cell-px") > 0;
-        if (o->beamsPerPass == 0) o->beamsPerPass = o->cells ? 64 : 256;
+        if (o->beamsPerPass == 0) o->beamsPerPass = o->cells ? 64 : kDefaultRegionBeams;
         if (!o->displayView.display.empty() && !o->pngGiven)
             throw InputError("--display", 0, "a display and view shape the PNG: give --png too");
         resolveLayersOption(c, o->layers, o->plate);
