@@ -37,6 +37,13 @@ namespace {
 // Regions whose diffraction PSFs differ by at most this share one (StarburstOptions::
 // psfGroupTolerance, PsfGroups.h; docs/composite.md says what it costs in accuracy).
 constexpr double kDefaultPsfTolerance = 0.05;
+// Regions sharing a PSF whose crops lie within this share of their near windows' half-width of
+// their cluster's centroid share one far field (StarburstOptions::clusterFarFields; docs/
+// composite.md says what it costs in accuracy).
+constexpr double kDefaultFarCluster = 0.5;
+// Beams per pass and region light on average, shared by power: on the night plate the estimated
+// ghost error of 256 equal beams (12 %) is reached by power with about 160 (docs/BENCHMARKS.md).
+constexpr int kDefaultRegionBeams = 160;
 
 struct CompositeOptions {
     std::string plate;
@@ -54,14 +61,16 @@ struct CompositeOptions {
     double regionDeg = kDefaultRegionRadiusDeg;
     double cullShare = 1e-3;
     double psfTolerance = kDefaultPsfTolerance;
+    double farCluster = kDefaultFarCluster;
     LayersOption layers;
     int passes = PreviewBudget::kDefaultPasses;
-    int beamsPerPass = 0;  // 0: 256 per region light, 64 per cell (--cell-px gives many more lights)
+    int beamsPerPass = 0;  // 0: 160 per region light, 64 per cell (--cell-px gives many more lights)
     double timeS = 0.0;
     double targetError = 0.0;
     long long seed = -1;
     std::optional<double> exposureStops;
     bool noDiffraction = false;
+    bool equalBeams = false;  // every light --beams-per-pass (else shared by power)
     bool quiet = false;
     bool pngGiven = false;
 };
@@ -84,8 +93,8 @@ void addInto(std::vector<float>& into, const std::vector<float>& from, float sig
     for (size_t i = 0; i < into.size(); ++i) into[i] += sign * from[i];
 }
 
-// Renders `scene`'s preview with the budget: --passes, --time, or --target-error (passes grown
-// from the estimated error, which falls at least as one over the square root of the passes).
+// Renders `scene`'s preview with the budget: --passes, --time, or --target-error (the passes
+// continue, those made kept, until the ghosts' estimated error is below it).
 ScenePreview renderFlare(const Scene& scene, const LensSystem& lens, const CompositeOptions& o, bool perGhost,
                          Clock::time_point start, bool plate) {
     PreviewBudget budget;
@@ -95,17 +104,8 @@ ScenePreview renderFlare(const Scene& scene, const LensSystem& lens, const Compo
     budget.ghostLayers = o.layers.selection;
     budget.direct = !plate;  // the plate holds its sources' own image
     if (o.timeS > 0.0) budget.timeS = std::max(1e-3, o.timeS - secondsSince(start));
-    ScenePreview preview = previewScene(scene, lens, perGhost, budget);
-    while (o.targetError > 0.0 && preview.ghostEstimatedError > o.targetError && budget.passes < (1 << 16)) {
-        const double ratio = preview.ghostEstimatedError / o.targetError;
-        const int next = std::min(1 << 16, static_cast<int>(std::ceil(budget.passes * ratio * ratio * 1.2)));
-        budget.passes = std::max(budget.passes * 2, next + (next % 2));  // whole passes per replicate
-        if (!o.quiet)
-            std::fprintf(stderr, "composite: estimated error %.2g%% > %.2g%%: again with %d passes\n",
-                         100.0 * preview.ghostEstimatedError, 100.0 * o.targetError, budget.passes);
-        preview = previewScene(scene, lens, perGhost, budget);
-    }
-    return preview;
+    budget.targetError = o.targetError;
+    return previewScene(scene, lens, perGhost, budget);
 }
 
 // A frame's lights as the next frame matches them: where each is on the plate, and its spec.
@@ -173,6 +173,9 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
     if (o.seed >= 0) scene.render.seed = static_cast<std::uint64_t>(o.seed);
     // `flare preview` of the written scene draws half its beams_per_pass per pass: the same beams.
     scene.render.beamsPerPass = 2 * o.beamsPerPass;
+    // The pass's beams (--beams-per-pass per light on average) shared by the lights' power
+    // (SceneBeamShare.h): a dim region's ghosts matter in proportion to its power.
+    scene.render.beamsByPower = !o.equalBeams;
     std::vector<LightSpec> extra;
     if (!o.extraLights.empty()) extra = loadScene(o.extraLights).lights;
     // A lens without lights: only the optics, for the field mapping.
@@ -262,6 +265,7 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
             StarburstOptions crops;
             if (!o.cells) crops.maxCropRadiusPx = std::max(crops.maxCropRadiusPx, static_cast<int>(std::ceil(2.0 * matchRadiusPx)) + 2);
             crops.psfGroupTolerance = o.psfTolerance;
+            crops.clusterFarFields = o.farCluster;
             starburst = sceneStarburst(plateScene, lens, sourceXyz, w, h, crops);
             starburstS = secondsSince(begin);
         });
@@ -293,12 +297,16 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
     }
     beside.wait();
     if (starburst && !o.quiet) {
-        std::set<int> psfs;
+        std::set<int> psfs, farFields;
         double largest = 0.0;
-        for (const StarburstLightReport& r : starburst->lights)
-            if (r.diffracted) psfs.insert(r.psfLight), largest = std::max(largest, r.psfDifference);
-        std::fprintf(stderr, "composite: starburst of %zu light(s) with %zu PSF(s) (pupils within %.2g of their PSF's)\n",
-                     starburst->lights.size(), psfs.size(), largest);
+        for (size_t l = 0; l < starburst->lights.size(); ++l) {
+            const StarburstLightReport& r = starburst->lights[l];
+            if (!r.diffracted) continue;
+            psfs.insert(r.psfLight), largest = std::max(largest, r.psfDifference);
+            farFields.insert(r.farCluster >= 0 ? r.farCluster : static_cast<int>(l));
+        }
+        std::fprintf(stderr, "composite: starburst of %zu light(s) with %zu PSF(s) (pupils within %.2g of their PSF's), %zu far field(s)\n",
+                     starburst->lights.size(), psfs.size(), largest, farFields.size());
     }
     if (found.lights.empty()) {
         std::fprintf(stderr, "composite: warning: no pixel of %s has Y above the threshold %.6g (brightest %.6g): %s\n",
@@ -483,6 +491,10 @@ void addCompositeCommand(CLI::App& app) {
                   "regions whose diffraction PSFs differ by at most this (relative area of their pupils' difference) "
                   "share one (default 0.05; 0: one per region)")
         ->check(CLI::Range(0.0, 1.0));
+    c->add_option("--far-cluster", o->farCluster,
+                  "regions sharing a PSF whose crops lie within this share of their near window's half-width of their "
+                  "cluster's centre share one far field (default 0.5; 0: one per region)")
+        ->check(CLI::Range(0.0, 4.0));
     c->add_option("--extra-lights", o->extraLights, "scene file whose lights are added (sources the plate cannot show)");
     c->add_option("--lights-json", o->lightsJson, "write the scene of the lights found (edit it, render it)");
     addLayersOption(c, o->layers, "add the per-ghost layers (ghost_03_07.R/G/B, half precision, parts of their own)");
@@ -495,9 +507,12 @@ void addCompositeCommand(CLI::App& app) {
     time->excludes(passes)->excludes(error);
     error->excludes(passes);
     c->add_option("--beams-per-pass", o->beamsPerPass,
-                  "beams per pass and light (default 256 per region light, 64 per cell with --cell-px: many "
-                  "lights share the frame, and each light's error matters in proportion to its power)")
+                  "beams per pass and light, on average: the pass's beams are shared among the lights by their power "
+                  "(default 160 per region light, 64 per cell with --cell-px)")
         ->check(CLI::Range(8, 32768));
+    c->add_flag("--equal-beams", o->equalBeams,
+                "every light --beams-per-pass beams a pass (by default the pass's beams are shared among the lights "
+                "by their power)");
     c->add_option("--frames", o->frames,
                   "a sequence FIRST-LAST: PLATE, -o (and --png, --lights-json) hold the frame number as '####'; "
                   "sources are matched frame to frame so that their flare does not flicker");
@@ -506,7 +521,7 @@ void addCompositeCommand(CLI::App& app) {
     c->callback([o, c] {
         o->pngGiven = c->count("--png") > 0;
         o->cells = c->count("--cell-px") > 0;
-        if (o->beamsPerPass == 0) o->beamsPerPass = o->cells ? 64 : 256;
+        if (o->beamsPerPass == 0) o->beamsPerPass = o->cells ? 64 : kDefaultRegionBeams;
         if (!o->displayView.display.empty() && !o->pngGiven)
             throw InputError("--display", 0, "a display and view shape the PNG: give --png too");
         resolveLayersOption(c, o->layers, o->plate);

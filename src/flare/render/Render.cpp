@@ -129,9 +129,17 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
     // The lights' analyses and plans are independent (each deterministic on its own): planned
     // side by side, so that many lights (a plate's regions) keep both cores busy through each
     // analysis's serial stretches; kept in the lights' order.
+    if (!options.lightBeamsPerPass.empty() && options.lightBeamsPerPass.size() != lights.size())
+        throw std::invalid_argument("RenderOptions::lightBeamsPerPass: one count per light");
     std::vector<std::optional<renderer::PlannedLight>> plannedLights(lights.size());
     tbb::parallel_for(size_t{0}, lights.size(), size_t{1}, [&](size_t l) {
-        plannedLights[l].emplace(renderer::planLight(lens, lights[l], options, anyScattering));
+        if (options.lightBeamsPerPass.empty()) {
+            plannedLights[l].emplace(renderer::planLight(lens, lights[l], options, anyScattering));
+            return;
+        }
+        RenderOptions own = options;  // this light's budget of beams
+        own.beamsPerPass = options.lightBeamsPerPass.at(l);
+        plannedLights[l].emplace(renderer::planLight(lens, lights[l], own, anyScattering));
     });
     for (std::optional<renderer::PlannedLight>& slot : plannedLights) {
         renderer::PlannedLight planned = std::move(*slot);

@@ -106,6 +106,10 @@ struct RenderOptions {
     // correction photons traced with each beam. A path's beams continue its sequence from pass
     // to pass, so the pass size matters little to the error.
     int beamsPerPass = 1024;
+    // Per light (the lights' order), in place of beamsPerPass: lights of unequal power given beams
+    // by their share (`flare composite`'s regions). Each light's paths then share its own budget,
+    // weighted by one over their rates as always: unbiased whatever the split. Empty: beamsPerPass.
+    std::vector<int> lightBeamsPerPass;
     int correctionPhotonsPerBeam = 0;
     // Independent replicates of the beams' sequences (2 to kMaxReplicates): the render's
     // error estimate, and each beam path's standard error, come from their spread. Each replicate

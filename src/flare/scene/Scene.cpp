@@ -98,7 +98,7 @@ void parseRender(const Checker& c, const Node& node, RenderSettings& r) {
     c.object(node, "render",
              {"preview_wavelengths", "ghost_order", "prune_keep_share", "prune_relative_threshold", "photons", "seed",
               "max_bounces", "sensor_ghosts", "diffraction", "diffraction_wavelengths", "beams_per_pass",
-              "ghost_ringing"});
+              "beams_by_power", "ghost_ringing"});
     if (const Member* m = Checker::find(node, "preview_wavelengths"))
         r.previewWavelengths = static_cast<int>(c.integerIn(m->value, "render.preview_wavelengths", 1, 64));
     if (const Member* m = Checker::find(node, "ghost_order")) {
@@ -131,6 +131,7 @@ void parseRender(const Checker& c, const Node& node, RenderSettings& r) {
         r.diffractionWavelengths = static_cast<int>(c.integerIn(m->value, "render.diffraction_wavelengths", 1, 256));
     if (const Member* m = Checker::find(node, "beams_per_pass"))
         r.beamsPerPass = static_cast<int>(c.integerIn(m->value, "render.beams_per_pass", 16, 65536));
+    if (const Member* m = Checker::find(node, "beams_by_power")) r.beamsByPower = c.boolean(m->value, "render.beams_by_power");
     if (const Member* m = Checker::find(node, "ghost_ringing")) r.ghostRinging = c.boolean(m->value, "render.ghost_ringing");
 }
 

@@ -40,6 +40,7 @@ struct RenderSettings {
     bool diffraction = true;              // the starburst: the direct image convolved with the PSF
     int diffractionWavelengths = 32;      // spectral quadrature of the diffraction PSF
     int beamsPerPass = 1024;              // per directional light (RenderOptions::beamsPerPass)
+    bool beamsByPower = false;            // the pass's beams shared by the lights' power (SceneBeamShare.h)
     bool ghostRinging = true;             // Fresnel ripples on the ghosts' rims (RenderOptions::ghostRinging)
 };
 

@@ -79,6 +79,7 @@ nlohmann::json sceneToJson(const Scene& scene) {
                    {"diffraction", r.diffraction},
                    {"diffraction_wavelengths", r.diffractionWavelengths},
                    {"beams_per_pass", r.beamsPerPass}};
+    if (r.beamsByPower) j["render"]["beams_by_power"] = true;
     return j;
 }
 

@@ -16,6 +16,7 @@
 #include "flare/core/Spectrum.h"
 #include "flare/ghosts/GhostAnalysis.h"
 #include "flare/render/Render.h"
+#include "flare/scene/SceneBeamShare.h"
 #include "flare/scene/SceneRender.h"
 #include "flare/scene/SceneStarburst.h"
 
@@ -71,6 +72,7 @@ ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGh
     options.tracePhotons = false;
     options.ghostGroupsOnly = true;  // (the preview reads the layers and the ghost group's estimate)
     options.beamsPerPass = budget.beamsPerPass > 0 ? budget.beamsPerPass : std::max(16, options.beamsPerPass / 2);
+    if (scene.render.beamsByPower) options.lightBeamsPerPass = lightBeamsByPower(scene.lights, options.beamsPerPass);
     Renderer renderer(lens, scene.lights, options);
 
     // Each light's own image (the mesh preview of its direct path alone) and its diffraction need
@@ -106,14 +108,25 @@ ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGh
     // lens and the scene, which outlive neither).
     const int replicates = std::max(1, renderer.film().replicates());
     double passS = 0.0;
+    // With a target error: the passes to reach before the error is estimated again.
+    int until = std::max(budget.passes, 1);
     try {
         for (int pass = 0;; ++pass) {
             if (budget.timeS > 0.0) {
                 // Whole passes that end within the budget, and one per replicate at least (the
                 // error estimate); each pass costs about what the last one did.
                 if (pass >= replicates && elapsedS() + passS > budget.timeS) break;
-            } else if (pass >= std::max(budget.passes, 1)) {
-                break;
+            } else if (pass >= until) {
+                if (!(budget.targetError > 0.0) || pass % replicates != 0 || pass >= budget.maxPasses) break;
+                // Continue from here (the passes made are kept): the error falls at least as one
+                // over the square root of the passes, so the forecast is pass·(error/target)²,
+                // a little more (a forecast just short costs a whole extra round), in whole rounds.
+                const double error = renderer.hasErrorEstimate() ? renderer.estimatedRelativeError(kGroupGhost) : 0.0;
+                if (error <= budget.targetError) break;
+                const double ratio = error / budget.targetError;
+                const double forecast = std::ceil(pass * ratio * ratio * 1.1);
+                const int rounds = static_cast<int>(std::ceil(std::min<double>(budget.maxPasses, forecast) / replicates));
+                until = std::min(budget.maxPasses, std::max(pass + replicates, rounds * replicates));
             }
             const double before = elapsedS();
             renderer.runPass();

@@ -41,6 +41,12 @@ struct PreviewBudget {
     int passes = kDefaultPasses;
     int beamsPerPass = 0;  // per light; 0: half the scene's render.beams_per_pass (at least 16)
     double timeS = 0.0;
+    // > 0: after `passes`, the passes continue (whole rounds, one pass per replicate) until the
+    // ghosts' estimated relative error is at most this, the passes already made kept (at most
+    // maxPasses). Each round's length is forecast from the error falling as one over the square
+    // root of the passes.
+    double targetError = 0.0;
+    int maxPasses = 1 << 16;
     std::optional<std::uint64_t> seed;  // default: the scene's render.seed
     bool higher = false;                // add the guided order-4 chains (the `higher` layer)
     LayerSelection ghostLayers;         // with per-ghost layers: which ghosts keep one (RenderOptions)

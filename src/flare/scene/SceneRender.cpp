@@ -4,6 +4,7 @@
 #include <utility>
 
 #include "flare/render/RenderReport.h"
+#include "flare/scene/SceneBeamShare.h"
 #include "flare/scene/SceneScattering.h"
 #include "flare/scene/SceneStarburst.h"
 
@@ -15,6 +16,7 @@ RenderOptions sceneRenderOptions(const Scene& scene, const LensSystem& lens, con
     options.seed = overrides.seed.value_or(scene.render.seed);
     options.maxBounces = overrides.maxBounces.value_or(scene.render.maxBounces);
     options.beamsPerPass = overrides.beamsPerPass.value_or(scene.render.beamsPerPass);
+    if (scene.render.beamsByPower) options.lightBeamsPerPass = lightBeamsByPower(scene.lights, options.beamsPerPass);
     // A guided pass's beams cost far more than its photons, and the layers left to photons
     // (scatter, higher) are what a target waits for: guided passes trace four times the photons.
     if (options.mode == RenderOptions::Mode::Guided) options.batchesPerPass = kGuidedBatchesPerPass;

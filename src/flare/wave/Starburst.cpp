@@ -155,6 +155,145 @@ double fannedTailShape(double tA, double tB) {
     return std::log(std::abs((tB - 0.5) * (tA + 0.5) / ((tB + 0.5) * (tA - 0.5)))) / (tB - tA);
 }
 
+// A light's far part is its crop convolved with the PSF's rest beyond its near window: the window's
+// taper about the crop's centre (0 within half the window, 1 beyond it) times the far field.
+struct FarTaper {
+    glm::dvec2 centrePx{0.0};
+    double startPx = 0.0, widthPx = 1.0;
+    double weight = 1.0;  // of the far field evaluated: the light's share of the cluster's energy (Y)
+};
+
+// Adds the far field of the crop whose pixels (`cropPoints`, relative to `cropCentre`) carry
+// `cropEnergies` per channel (summing to `cropEnergy`) to `xyz`, times the tapers' weighted sum,
+// and each row's Y to `inFrameRows`: the spikes' envelopes times the crop's transverse profiles,
+// the spikes' tails, the corners' interference and the halo, over every pixel of the frame.
+void addFarField(const DiffractionPsf& psf, const ApertureTransform& aperture, const std::vector<glm::dvec2>& cropPoints,
+                 const std::vector<double> (&cropEnergies)[3], const glm::dvec3& cropEnergy, const glm::dvec2& cropCentre,
+                 const std::vector<FarTaper>& tapers, int width, int height, std::vector<float>& xyz,
+                 std::vector<double>& inFrameRows) {
+    const std::vector<DiffractionPsf::Spike>& spikes = psf.spikes();
+    std::vector<std::array<TransverseProfile, 3>> profiles(spikes.size());
+    for (size_t s = 0; s < spikes.size(); ++s)
+        for (int c = 0; c < 3; ++c)
+            profiles[s][c] = transverseProfile(cropPoints, cropEnergies[c], spikes[s].transversePx,
+                                               spikes[s].transverseWidthPx[c]);
+    // Row by row (each row's pixels get their additions in a fixed order: deterministic), every
+    // pixel of the frame: the halo, each spike (the crop's profile within its band, the point
+    // tail of its sinc² beyond) and the corners' interference. The spikes' tails and the
+    // corners are what lights the frame between the spikes: they fall as 1/r⁴ and reach every
+    // pixel, none is cut off.
+    const bool halo = aperture.smoothLengthMm() > 0.0;
+    const bool corners = !aperture.corners().empty();
+    // Per spike, the band any channel's profile covers, and the widest sinc².
+    std::vector<glm::dvec2> bands(spikes.size());
+    std::vector<double> widest(spikes.size());
+    for (size_t s = 0; s < spikes.size(); ++s) {
+        bands[s] = {1e300, -1e300};
+        for (int c = 0; c < 3; ++c) {
+            bands[s].x = std::min(bands[s].x, profiles[s][c].bandLo());
+            bands[s].y = std::max(bands[s].y, profiles[s][c].bandHi());
+        }
+        widest[s] = std::max({spikes[s].transverseWidthPx.x, spikes[s].transverseWidthPx.y, spikes[s].transverseWidthPx.z});
+    }
+    // The averaged tail's factor w/(2π²), with the line's density and the crop's energy.
+    std::vector<glm::dvec3> tailScale(spikes.size());
+    for (size_t s = 0; s < spikes.size(); ++s)
+        tailScale[s] = spikes[s].lineDensity * cropEnergy * spikes[s].transverseWidthPx / (2.0 * kPi * kPi);
+    tbb::parallel_for(0, height, [&](int y) {
+        const size_t row = static_cast<size_t>(y) * width;
+        // Per pixel of the row: the taper's weight, 1/r⁴ and the sum; each spike is added over
+        // the whole row (its cheap far tail first, the pixels near its line after).
+        std::vector<double> taper(width), inverseR4(width);
+        std::vector<glm::dvec3> value(width, glm::dvec3(0.0));
+        std::vector<int> nearLine;
+        for (int x = 0; x < width; ++x) {
+            const glm::dvec2 offset = glm::dvec2(x + 0.5, y + 0.5) - cropCentre;
+            const double r2 = glm::dot(offset, offset);
+            if (tapers.size() == 1) {
+                taper[x] = smoothstep((std::sqrt(r2) - tapers[0].startPx) / tapers[0].widthPx);
+            } else {  // the cluster's lights' tapers, each about its own crop, by their energy
+                taper[x] = 0.0;
+                for (const FarTaper& t : tapers)
+                    taper[x] += t.weight * smoothstep((glm::length(glm::dvec2(x + 0.5, y + 0.5) - t.centrePx) - t.startPx) /
+                                                      t.widthPx);
+            }
+            inverseR4[x] = taper[x] > 0.0 ? 1.0 / (r2 * r2) : 0.0;
+        }
+        const double dy = y + 0.5 - cropCentre.y;
+        for (size_t s = 0; s < spikes.size(); ++s) {
+            const DiffractionPsf::Spike& spike = spikes[s];
+            const double fanWidth = spike.fanToRad - spike.fanFromRad;
+            nearLine.clear();
+            for (int x = 0; x < width; ++x) {
+                if (!(taper[x] > 0.0)) continue;
+                const double dx = x + 0.5 - cropCentre.x;
+                // The envelope (k·n)²/|k|⁴: 1/r² along the line, falling to 0 across it.
+                const double along = dx * spike.directionPx.x + dy * spike.directionPx.y;
+                const double t = dx * spike.transversePx.x + dy * spike.transversePx.y;
+                const double tA = t - along * spike.fanFromRad, tB = t - along * spike.fanToRad;
+                const double nearest = std::min(std::abs(tA), std::abs(tB)) - 0.5;
+                // Wholly beyond the band and four widths (most of the frame), a narrow fan: the
+                // averaged tail's mean over it by fannedTailShape's midpoint rule.
+                if ((std::min(tA, tB) > bands[s].y || std::max(tA, tB) < bands[s].x) &&
+                    nearest > kAveragedTailWidths * widest[s] && std::abs(along * fanWidth) < 0.2 * nearest) {
+                    const double mid = 0.5 * (tA + tB), y2 = mid * mid, inverse = 1.0 / (y2 - 0.25);
+                    const double spread2 = along * along * fanWidth * fanWidth;
+                    const double shape = inverse + (6.0 * y2 + 0.5) * inverse * inverse * inverse * spread2 / 24.0;
+                    value[x] += tailScale[s] * (along * along * inverseR4[x] * shape);
+                } else {
+                    nearLine.push_back(x);
+                }
+            }
+            for (const int x : nearLine) {
+                const double dx = x + 0.5 - cropCentre.x;
+                const double along = dx * spike.directionPx.x + dy * spike.directionPx.y;
+                const double t = dx * spike.transversePx.x + dy * spike.transversePx.y;
+                const double envelope = along * along * inverseR4[x];
+                const double tA = t - along * spike.fanFromRad, tB = t - along * spike.fanToRad;
+                // Wholly beyond the band: the averaged tail's mean over a wide fan (closed form);
+                // wholly inside it: the profile's; across the band's edge, the fan in pieces of
+                // at most 4 px of transverse offset, each from the profile where it lies in the
+                // band, else from the point tail.
+                if ((std::min(tA, tB) > bands[s].y || std::max(tA, tB) < bands[s].x) &&
+                    std::min(std::abs(tA), std::abs(tB)) - 0.5 > kAveragedTailWidths * widest[s]) {
+                    value[x] += tailScale[s] * (envelope * fannedTailShape(tA, tB));
+                    continue;
+                }
+                const int pieces = std::clamp(static_cast<int>(std::ceil(std::abs(along * fanWidth) / 4.0)), 1, 16);
+                const double step = fanWidth / pieces;
+                for (int c = 0; c < 3; ++c) {
+                    const TransverseProfile& profile = profiles[s][c];
+                    if (std::min(tA, tB) > profile.bandLo() && std::max(tA, tB) < profile.bandHi()) {
+                        value[x][c] += spike.lineDensity[c] * envelope *
+                                       profile.fanned(t, along, spike.fanFromRad, spike.fanToRad);
+                        continue;
+                    }
+                    double share = 0.0;
+                    for (int p = 0; p < pieces; ++p) {
+                        const double from = spike.fanFromRad + p * step, to = from + step;
+                        const double centre = t - along * 0.5 * (from + to);
+                        share += centre > profile.bandLo() && centre < profile.bandHi()
+                                     ? profile.fanned(t, along, from, to)
+                                     : cropEnergy[c] * pixelTail(centre, spike.transverseWidthPx[c]);
+                    }
+                    value[x][c] += spike.lineDensity[c] * envelope * share / pieces;
+                }
+            }
+        }
+        double rowY = 0.0;
+        for (int x = 0; x < width; ++x) {
+            if (!(taper[x] > 0.0)) continue;
+            const glm::dvec2 offset = glm::dvec2(x + 0.5, y + 0.5) - cropCentre;
+            if (halo) value[x] += psf.smoothPerPixel(offset) * cropEnergy;
+            if (corners) value[x] += psf.cornerPerPixel(offset) * cropEnergy;
+            const glm::dvec3 v = taper[x] * value[x];
+            for (int c = 0; c < 3; ++c) xyz[3 * (row + x) + c] += static_cast<float>(v[c]);
+            rowY += v.y;
+        }
+        inFrameRows[y] += rowY;
+    });
+}
+
 }  // namespace
 
 StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>& directXyz, int width, int height,
@@ -268,6 +407,16 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
         if (group.window > 0) group.kernelXyz = group.psf->window(group.window);
     }
 
+    // With clusterFarFields, each light's crop for its cluster's far field.
+    struct FarSource {
+        bool used = false;
+        std::vector<glm::dvec2> points;  // pixel centres (absolute)
+        std::vector<double> energies[3];
+        glm::dvec3 energy{0.0};
+        FarTaper taper;
+        double nearInFrame = 0.0;        // Y of the near part on the sensor
+    };
+    std::vector<FarSource> farSources(options.clusterFarFields > 0.0 ? lights.size() : 0);
     for (size_t l = 0; l < lights.size(); ++l) {
         StarburstLightReport& report = result.lights[l];
         if (!outlines[l].found) continue;
@@ -357,124 +506,24 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
                 }
         });
 
-        // Far: the spikes' envelopes times the crop's transverse profiles, and the halo.
-        const std::vector<DiffractionPsf::Spike>& spikes = psf.spikes();
-        std::vector<std::array<TransverseProfile, 3>> profiles(spikes.size());
-        for (size_t s = 0; s < spikes.size(); ++s)
-            for (int c = 0; c < 3; ++c)
-                profiles[s][c] = transverseProfile(cropPoints, cropEnergies[c], spikes[s].transversePx,
-                                                   spikes[s].transverseWidthPx[c]);
-        // Row by row (each row's pixels get their additions in a fixed order: deterministic), every
-        // pixel of the frame: the halo, each spike (the crop's profile within its band, the point
-        // tail of its sinc² beyond) and the corners' interference. The spikes' tails and the
-        // corners are what lights the frame between the spikes: they fall as 1/r⁴ and reach every
-        // pixel, none is cut off.
-        const bool halo = aperture.smoothLengthMm() > 0.0;
-        const bool corners = !aperture.corners().empty();
-        // Per spike, the band any channel's profile covers, and the widest sinc².
-        std::vector<glm::dvec2> bands(spikes.size());
-        std::vector<double> widest(spikes.size());
-        for (size_t s = 0; s < spikes.size(); ++s) {
-            bands[s] = {1e300, -1e300};
-            for (int c = 0; c < 3; ++c) {
-                bands[s].x = std::min(bands[s].x, profiles[s][c].bandLo());
-                bands[s].y = std::max(bands[s].y, profiles[s][c].bandHi());
-            }
-            widest[s] = std::max({spikes[s].transverseWidthPx.x, spikes[s].transverseWidthPx.y, spikes[s].transverseWidthPx.z});
+        // Far: the spikes' envelopes times the crop's transverse profiles, and the halo; now, or
+        // with the light's cluster (clusterFarFields) once every light's near part is in.
+        if (options.clusterFarFields > 0.0) {
+            FarSource& far = farSources[l];
+            far.points = std::move(cropPoints);
+            for (glm::dvec2& p : far.points) p += cropCentre;  // (absolute: the cluster centres them again)
+            for (int c = 0; c < 3; ++c) far.energies[c] = std::move(cropEnergies[c]);
+            far.energy = cropEnergy;
+            far.taper = {cropCentre, taperStart, taperWidth, 1.0};
+            for (double r : inFrameRows) far.nearInFrame += r;
+            far.used = true;
+        } else {
+            addFarField(psf, aperture, cropPoints, cropEnergies, cropEnergy, cropCentre,
+                        {FarTaper{cropCentre, taperStart, taperWidth, 1.0}}, width, height, result.xyz, inFrameRows);
+            double inFrame = 0.0;
+            for (double r : inFrameRows) inFrame += r;
+            report.outsideFrameShare = std::max(0.0, 1.0 - inFrame / cropEnergy.y);
         }
-        // The averaged tail's factor w/(2π²), with the line's density and the crop's energy.
-        std::vector<glm::dvec3> tailScale(spikes.size());
-        for (size_t s = 0; s < spikes.size(); ++s)
-            tailScale[s] = spikes[s].lineDensity * cropEnergy * spikes[s].transverseWidthPx / (2.0 * kPi * kPi);
-        tbb::parallel_for(0, height, [&](int y) {
-            const size_t row = static_cast<size_t>(y) * width;
-            // Per pixel of the row: the taper's weight, 1/r⁴ and the sum; each spike is added over
-            // the whole row (its cheap far tail first, the pixels near its line after).
-            std::vector<double> taper(width), inverseR4(width);
-            std::vector<glm::dvec3> value(width, glm::dvec3(0.0));
-            std::vector<int> nearLine;
-            for (int x = 0; x < width; ++x) {
-                const glm::dvec2 offset = glm::dvec2(x + 0.5, y + 0.5) - cropCentre;
-                const double r2 = glm::dot(offset, offset);
-                taper[x] = smoothstep((std::sqrt(r2) - taperStart) / taperWidth);
-                inverseR4[x] = taper[x] > 0.0 ? 1.0 / (r2 * r2) : 0.0;
-            }
-            const double dy = y + 0.5 - cropCentre.y;
-            for (size_t s = 0; s < spikes.size(); ++s) {
-                const DiffractionPsf::Spike& spike = spikes[s];
-                const double fanWidth = spike.fanToRad - spike.fanFromRad;
-                nearLine.clear();
-                for (int x = 0; x < width; ++x) {
-                    if (!(taper[x] > 0.0)) continue;
-                    const double dx = x + 0.5 - cropCentre.x;
-                    // The envelope (k·n)²/|k|⁴: 1/r² along the line, falling to 0 across it.
-                    const double along = dx * spike.directionPx.x + dy * spike.directionPx.y;
-                    const double t = dx * spike.transversePx.x + dy * spike.transversePx.y;
-                    const double tA = t - along * spike.fanFromRad, tB = t - along * spike.fanToRad;
-                    const double nearest = std::min(std::abs(tA), std::abs(tB)) - 0.5;
-                    // Wholly beyond the band and four widths (most of the frame), a narrow fan: the
-                    // averaged tail's mean over it by fannedTailShape's midpoint rule.
-                    if ((std::min(tA, tB) > bands[s].y || std::max(tA, tB) < bands[s].x) &&
-                        nearest > kAveragedTailWidths * widest[s] && std::abs(along * fanWidth) < 0.2 * nearest) {
-                        const double mid = 0.5 * (tA + tB), y2 = mid * mid, inverse = 1.0 / (y2 - 0.25);
-                        const double spread2 = along * along * fanWidth * fanWidth;
-                        const double shape = inverse + (6.0 * y2 + 0.5) * inverse * inverse * inverse * spread2 / 24.0;
-                        value[x] += tailScale[s] * (along * along * inverseR4[x] * shape);
-                    } else {
-                        nearLine.push_back(x);
-                    }
-                }
-                for (const int x : nearLine) {
-                    const double dx = x + 0.5 - cropCentre.x;
-                    const double along = dx * spike.directionPx.x + dy * spike.directionPx.y;
-                    const double t = dx * spike.transversePx.x + dy * spike.transversePx.y;
-                    const double envelope = along * along * inverseR4[x];
-                    const double tA = t - along * spike.fanFromRad, tB = t - along * spike.fanToRad;
-                    // Wholly beyond the band: the averaged tail's mean over a wide fan (closed form);
-                    // wholly inside it: the profile's; across the band's edge, the fan in pieces of
-                    // at most 4 px of transverse offset, each from the profile where it lies in the
-                    // band, else from the point tail.
-                    if ((std::min(tA, tB) > bands[s].y || std::max(tA, tB) < bands[s].x) &&
-                        std::min(std::abs(tA), std::abs(tB)) - 0.5 > kAveragedTailWidths * widest[s]) {
-                        value[x] += tailScale[s] * (envelope * fannedTailShape(tA, tB));
-                        continue;
-                    }
-                    const int pieces = std::clamp(static_cast<int>(std::ceil(std::abs(along * fanWidth) / 4.0)), 1, 16);
-                    const double step = fanWidth / pieces;
-                    for (int c = 0; c < 3; ++c) {
-                        const TransverseProfile& profile = profiles[s][c];
-                        if (std::min(tA, tB) > profile.bandLo() && std::max(tA, tB) < profile.bandHi()) {
-                            value[x][c] += spike.lineDensity[c] * envelope *
-                                           profile.fanned(t, along, spike.fanFromRad, spike.fanToRad);
-                            continue;
-                        }
-                        double share = 0.0;
-                        for (int p = 0; p < pieces; ++p) {
-                            const double from = spike.fanFromRad + p * step, to = from + step;
-                            const double centre = t - along * 0.5 * (from + to);
-                            share += centre > profile.bandLo() && centre < profile.bandHi()
-                                         ? profile.fanned(t, along, from, to)
-                                         : cropEnergy[c] * pixelTail(centre, spike.transverseWidthPx[c]);
-                        }
-                        value[x][c] += spike.lineDensity[c] * envelope * share / pieces;
-                    }
-                }
-            }
-            double rowY = 0.0;
-            for (int x = 0; x < width; ++x) {
-                if (!(taper[x] > 0.0)) continue;
-                const glm::dvec2 offset = glm::dvec2(x + 0.5, y + 0.5) - cropCentre;
-                if (halo) value[x] += psf.smoothPerPixel(offset) * cropEnergy;
-                if (corners) value[x] += psf.cornerPerPixel(offset) * cropEnergy;
-                const glm::dvec3 v = taper[x] * value[x];
-                for (int c = 0; c < 3; ++c) result.xyz[3 * (row + x) + c] += static_cast<float>(v[c]);
-                rowY += v.y;
-            }
-            inFrameRows[y] += rowY;
-        });
-        double inFrame = 0.0;
-        for (double r : inFrameRows) inFrame += r;
-        report.outsideFrameShare = std::max(0.0, 1.0 - inFrame / cropEnergy.y);
 
         // Dust: each dusty surface's glow, from the crop's centre, through the lens behind it.
         for (const StarburstDust& layer : dust) {
@@ -503,6 +552,69 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
         if (report.dustGlowShare > 0.0) report.dustGlowInFrameShare /= report.dustGlowShare;
         report.diffracted = true;
         report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    }
+
+    // Clustered far fields: lights that share a PSF and lie close together have, beyond their near
+    // windows, nearly the far field of one light whose crop holds all their pixels. A light joins
+    // the first cluster of its PSF group whose energy centroid, with it, stays within
+    // clusterFarFields × its taper's start (half its window) of every member's crop centre: the
+    // envelope (1/r², 1/r⁴ about the centroid rather than about each crop) then moves by at most
+    // about 2 × that (4 × for the tails) where a member's far part begins, and far less beyond.
+    // Each member keeps its own taper, weighted by its share of the cluster's energy, so the near
+    // and far parts still partition every light's PSF.
+    if (options.clusterFarFields > 0.0) {
+        struct Cluster {
+            int group = 0;
+            std::vector<size_t> members;
+            glm::dvec2 centroid{0.0};
+            double energyY = 0.0;
+        };
+        std::vector<Cluster> clusters;
+        for (size_t l = 0; l < lights.size(); ++l) {
+            const FarSource& f = farSources[l];
+            if (!f.used) continue;
+            bool joined = false;
+            for (Cluster& c : clusters) {
+                if (c.group != groupOf[l]) continue;
+                const double energyY = c.energyY + f.energy.y;
+                const glm::dvec2 centroid = (c.energyY * c.centroid + f.energy.y * f.taper.centrePx) / energyY;
+                bool fits = glm::length(f.taper.centrePx - centroid) <= options.clusterFarFields * f.taper.startPx;
+                for (size_t m : c.members)
+                    fits = fits && glm::length(farSources[m].taper.centrePx - centroid) <=
+                                       options.clusterFarFields * farSources[m].taper.startPx;
+                if (!fits) continue;
+                c.members.push_back(l), c.centroid = centroid, c.energyY = energyY;
+                joined = true;
+                break;
+            }
+            if (!joined) clusters.push_back({groupOf[l], {l}, f.taper.centrePx, f.energy.y});
+        }
+        for (Cluster& c : clusters) {
+            const GroupPsf& group = groups[static_cast<size_t>(c.group)];
+            std::vector<glm::dvec2> points;
+            std::vector<double> energies[3];
+            glm::dvec3 energy{0.0};
+            std::vector<FarTaper> tapers;
+            for (size_t m : c.members) {
+                const FarSource& f = farSources[m];
+                for (const glm::dvec2& p : f.points) points.push_back(p - c.centroid);
+                for (int k = 0; k < 3; ++k) energies[k].insert(energies[k].end(), f.energies[k].begin(), f.energies[k].end());
+                energy += f.energy;
+                tapers.push_back(f.taper);
+                tapers.back().weight = c.members.size() == 1 ? 1.0 : f.energy.y / c.energyY;
+            }
+            std::vector<double> inFrameRows(height, 0.0);
+            addFarField(*group.psf, *group.aperture, points, energies, energy, c.centroid, tapers, width, height, result.xyz,
+                        inFrameRows);
+            double farInFrame = 0.0;
+            for (double r : inFrameRows) farInFrame += r;
+            for (size_t m : c.members) {
+                const FarSource& f = farSources[m];
+                const double inFrame = f.nearInFrame + farInFrame * f.energy.y / c.energyY;
+                result.lights[m].outsideFrameShare = std::max(0.0, 1.0 - inFrame / f.energy.y);
+                result.lights[m].farCluster = static_cast<int>(c.members.front());
+            }
+        }
     }
     return result;
 }

@@ -47,6 +47,11 @@ struct StarburstOptions {
     // traced once, its near window evaluated once at the largest any of them needs. 0: every light
     // its own PSF.
     double psfGroupTolerance = 0.0;
+    // > 0: lights of one PSF group whose crops lie close together get one far field, of the crop
+    // holding all their pixels (each keeping its own near window and taper): a light joins a
+    // cluster while the cluster's energy centroid stays within this share of every member's taper
+    // start (half its window) from the member's crop centre. 0: every light its own far field.
+    double clusterFarFields = 0.0;
 };
 
 // One light's diffraction, traced through the lens at the image's resolution.
@@ -77,6 +82,7 @@ struct StarburstLightReport {
     double coherentRadiusPx = 0.0;
     int psfLight = -1;               // the light whose PSF it was given (itself, or its group's founder)
     double psfDifference = 0.0;      // PsfGroups.h's difference from that light's pupil
+    int farCluster = -1;             // with clusterFarFields: its far field's cluster (its first light)
     double parsevalError = 0.0;      // the PSF model's energy before normalisation, minus 1
     double directEnergyY = 0.0;      // of this light's part of the direct image
     double diffractedShare = 0.0;    // of it, in the crop

@@ -1,0 +1,116 @@
+// A pass's beams shared among a scene's lights by their power (SceneBeamShare.h,
+// render.beams_by_power): the split, and the preview's ghosts with it against equal beams.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+#include <vector>
+
+#include "flare/scene/Scene.h"
+#include "flare/scene/SceneBeamShare.h"
+#include "flare/scene/ScenePreview.h"
+
+namespace flare {
+namespace {
+
+TEST(SceneBeamShare, SharesFollowThePowerWithAFloor) {
+    const std::vector<int> beams = beamsByPowerShare({100.0, 10.0, 1.0, 0.0}, 4 * 256, 16);
+    ASSERT_EQ(beams.size(), 4u);
+    // 1024 × 100/111, × 10/111, × 1/111 rounded; the floor for the weak and the dark.
+    EXPECT_EQ(beams[0], 923);
+    EXPECT_EQ(beams[1], 92);
+    EXPECT_EQ(beams[2], 16);
+    EXPECT_EQ(beams[3], 16);
+    // Without power, every light the floor; bad input refused.
+    EXPECT_EQ(beamsByPowerShare({0.0, 0.0}, 512, 16), (std::vector<int>{16, 16}));
+    EXPECT_THROW(beamsByPowerShare({1.0, -1.0}, 512, 16), std::invalid_argument);
+    EXPECT_THROW(beamsByPowerShare({1.0, NAN}, 512, 16), std::invalid_argument);
+    EXPECT_THROW(beamsByPowerShare({1.0}, 512, 0), std::invalid_argument);
+}
+
+TEST(SceneBeamShare, PointLightsShareByTheirIrradianceAtTheLens) {
+    LightSpec sun, lamp;
+    sun.power = 3.0;  // W/m²
+    lamp.type = LightSpec::Type::Point;
+    lamp.positionMm = {0.0, 0.0, -2000.0};
+    lamp.power = 4.0;  // W/sr at 2 m: 1 W/m²
+    const std::vector<int> beams = lightBeamsByPower({sun, lamp}, 128);
+    EXPECT_EQ(beams[0], 192);
+    EXPECT_EQ(beams[1], 64);
+}
+
+// Two lights a hundred to one in power: with the beams by power the preview's ghosts estimate the
+// same image as with equal beams (both unbiased: their difference within its estimated spread),
+// and, at the same total of beams, with a smaller estimated error.
+TEST(SceneBeamShare, ByPowerIsUnbiasedAndLowersTheError) {
+    Scene scene;
+    scene.lens = "double-gauss-50mm";
+    scene.lensState.fNumber = 4.0;
+    scene.sensor.widthPx = 192;
+    scene.sensor.heightPx = 128;
+    scene.render.diffraction = false;
+    LightSpec bright, dim;
+    bright.name = "bright", bright.fieldXDeg = 8.0, bright.fieldYDeg = 3.0, bright.power = 100.0;
+    dim.name = "dim", dim.fieldXDeg = -6.0, dim.fieldYDeg = -4.0, dim.power = 1.0;
+    scene.lights = {bright, dim};
+    const LensSystem lens = buildSceneLens(scene);
+    PreviewBudget budget;
+    budget.passes = 8;
+    budget.beamsPerPass = 64;
+    budget.direct = false;
+    const ScenePreview equal = previewScene(scene, lens, false, budget);
+    scene.render.beamsByPower = true;
+    const ScenePreview byPower = previewScene(scene, lens, false, budget);
+    ASSERT_GT(equal.ghostEstimatedError, 0.0);
+    ASSERT_GT(byPower.ghostEstimatedError, 0.0);
+    // The same beams in all (128 for two lights, 127 + 16 by power: the floor adds a little).
+    EXPECT_LT(byPower.ghostEstimatedError, equal.ghostEstimatedError);
+    double diff2 = 0.0, norm2 = 0.0, sumA = 0.0, sumB = 0.0;
+    for (size_t i = 1; i < equal.ghosts.size(); i += 3) {
+        const double d = double(byPower.ghosts[i]) - equal.ghosts[i];
+        diff2 += d * d;
+        norm2 += double(equal.ghosts[i]) * equal.ghosts[i];
+        sumA += equal.ghosts[i], sumB += byPower.ghosts[i];
+    }
+    // Independent estimates (the beams differ): their difference's relative L2 is about the two
+    // errors in quadrature; 3 × that, for the spread of the estimates themselves (two replicates).
+    const double spread = std::hypot(equal.ghostEstimatedError, byPower.ghostEstimatedError);
+    EXPECT_LT(std::sqrt(diff2 / norm2), 3.0 * spread);
+    EXPECT_NEAR(sumB / sumA, 1.0, 3.0 * spread);
+}
+
+// A target error continues the passes made (whole rounds) rather than starting again: the image is
+// that of a fixed count of the same passes, to the bit, and its estimated error meets the target.
+TEST(SceneBeamShare, TargetErrorContinuesThePasses) {
+    Scene scene;
+    scene.lens = "double-gauss-50mm";
+    scene.lensState.fNumber = 4.0;
+    scene.sensor.widthPx = 192;
+    scene.sensor.heightPx = 128;
+    scene.render.diffraction = false;
+    LightSpec light;
+    light.fieldXDeg = 8.0, light.fieldYDeg = 3.0;
+    scene.lights = {light};
+    const LensSystem lens = buildSceneLens(scene);
+    PreviewBudget budget;
+    budget.beamsPerPass = 32;
+    budget.direct = false;
+    const ScenePreview two = previewScene(scene, lens, false, budget);
+    budget.targetError = 0.6 * two.ghostEstimatedError;
+    const ScenePreview reached = previewScene(scene, lens, false, budget);
+    EXPECT_GT(reached.passes, 2);
+    EXPECT_EQ(reached.passes % 2, 0);
+    EXPECT_LE(reached.ghostEstimatedError, budget.targetError);
+    PreviewBudget fixed = budget;
+    fixed.targetError = 0.0;
+    fixed.passes = reached.passes;
+    const ScenePreview same = previewScene(scene, lens, false, fixed);
+    EXPECT_EQ(same.ghosts, reached.ghosts);
+    // A target the first passes meet: no more passes.
+    budget.targetError = 2.0 * two.ghostEstimatedError;
+    EXPECT_EQ(previewScene(scene, lens, false, budget).passes, 2);
+}
+
+}  // namespace
+}  // namespace flare
