@@ -73,9 +73,11 @@ struct DistributedPasses {
     // meet), at least 0. Rank 0 has that much less time than they do before the next exchange.
     double lagS = 0.0;
     // Rank 0's time between passes (after its last pass, before this one: the progress line, the
-    // stop rule, a checkpoint), which the others spend tracing: counted with its end of the pass.
+    // stop rule), which the others spend tracing: counted with its end of the pass. The smaller of
+    // the last two gaps, so that a one-off (a checkpoint written every minute) does not shrink the
+    // next pass's share.
     std::chrono::steady_clock::time_point lastPassEnd{};
-    double betweenS = 0.0;
+    double betweenS = 0.0, lastGapS = -1.0;
     long rootJobs = 0, othersJobs = 0;
     std::vector<double> bandSeconds, besidesBandsS;
 };
@@ -308,7 +310,11 @@ void Renderer::runDistributedPass() {
         return;
     }
 
-    if (d.lastPassEnd != std::chrono::steady_clock::time_point{}) d.betweenS = renderer::secondsSince(d.lastPassEnd);
+    if (d.lastPassEnd != std::chrono::steady_clock::time_point{}) {
+        const double gapS = renderer::secondsSince(d.lastPassEnd);
+        d.betweenS = d.lastGapS >= 0.0 ? std::min(gapS, d.lastGapS) : gapS;
+        d.lastGapS = gapS;
+    }
     const int replicate = replicateOfPass(statistics_.passes);
     startPass();
     const int batches = batchCount();
