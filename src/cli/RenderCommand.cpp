@@ -276,8 +276,8 @@ int run(const RenderCommandOptions& o) {
             std::fprintf(stderr,
                          "  %d ranks, per pass (wall s / CPU s): rank 0 traced %.0f%% of the jobs in %.3g / %.3g, each "
                          "other rank traced and encoded its share in %.3g / %.3g; rank 0 received %.3g MB, waited at "
-                         "the exchange %.3g, decoded the others' jobs, rasterised %.0f%% of the bands and splatted every hit "
-                         "in %.3g / %.3g (%.3g besides its bands), each other rank decoded, rasterised and encoded its bands in %.3g / %.3g; rank 0 added their bands and "
+                         "the exchange %.3g, decoded the others' jobs, rasterised %.0f%% of the bands, splatted every hit "
+                         "and ended its bands' pass in %.3g / %.3g (%.3g besides its bands), each other rank decoded, rasterised and encoded its bands in %.3g / %.3g; rank 0 added their bands and "
                          "ended the pass in %.3g / %.3g, after waiting %.3g for their bands\n",
                          processes.size(), 100.0 * c.rootShare * perPass, c.traceS * perPass, c.traceCpuS * perPass,
                          c.othersTraceS * perPass, c.othersTraceCpuS * perPass, c.bytesReceived * perPass / 1e6,

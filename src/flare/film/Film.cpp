@@ -41,6 +41,10 @@ struct Film::WideSplats {
         int x0 = INT32_MAX, y0 = INT32_MAX, x1 = -1, y1 = -1;  // inclusive, padded coordinates
     };
     std::vector<Box> boxes;  // per band
+    // Between beginEndPass and finishEndPass: the box integrated (empty: none) and the floor
+    // below which its values are rounding (integrateWideSplats).
+    Box integrated;
+    double floor = 0.0;
 
     WideSplats(int imageWidth, int imageHeight, int padPx, int bands)
         : pad(padPx), width(imageWidth + 2 * padPx), height(imageHeight + 2 * padPx),
@@ -310,6 +314,7 @@ void Film::integrateWideSplats() {
             box.y0 = std::min(box.y0, b.y0), box.y1 = std::max(box.y1, b.y1);
         }
         std::fill(wide->boxes.begin(), wide->boxes.end(), WideSplats::Box{});
+        wide->integrated = box;
         if (box.x1 < 0) continue;
         // Two running sums along each axis turn the second differences into the tents; every tent
         // ends inside the box (its last difference lies on the box's edge at the latest). Rows
@@ -344,30 +349,27 @@ void Film::integrateWideSplats() {
             [](double a, double b) { return std::max(a, b); });
         // The sums cancel to zero outside the tents only up to rounding: values below 1e-12 of
         // the largest (and any negative one: every tent and value is non-negative) are that.
-        const double floor = 1e-12 * largest;
+        wide->floor = 1e-12 * largest;
+    }
+}
+
+void Film::addWideSplatsInBand(int band) {
+    for (size_t index = 0; index < wide_.size(); ++index) {
+        WideSplats* wide = wide_[index].get();
+        if (!wide || wide->integrated.x1 < 0) continue;
+        const WideSplats::Box& box = wide->integrated;
         const int layer = static_cast<int>(index / 2);
         const bool inTotal = index % 2 == 1;
         const int xBegin = std::max(box.x0, wide->pad), xEnd = std::min(box.x1 + 1, wide->pad + settings_.widthPx);
-        const int yBegin = std::max(box.y0, wide->pad);
-        int yEnd = std::min(box.y1 + 1, wide->pad + settings_.heightPx);
-        // By bands of image rows: a band owns its tiles (see the class comment).
-        if (xBegin >= xEnd || yBegin >= yEnd) yEnd = yBegin;  // all off the image: nothing to add
-        const int firstBand = (yBegin - wide->pad) / kBandRows, lastBand = (yEnd - 1 - wide->pad) / kBandRows;
-        tbb::parallel_for(tbb::blocked_range<int>(firstBand, std::max(firstBand, lastBand + 1), 1), [&](const tbb::blocked_range<int>& bands) {
-            for (int band = bands.begin(); band != bands.end(); ++band) {
-                const int y0 = std::max(yBegin, band * kBandRows + wide->pad);
-                const int y1 = std::min(yEnd, (band + 1) * kBandRows + wide->pad);
-                for (int y = y0; y < y1; ++y) {
-                    // (In place: the buffer is cleared below.)
-                    double* row = wide->at(xBegin, y);
-                    for (int i = 0; i < (xEnd - xBegin) * 3; ++i) row[i] = row[i] > floor ? row[i] : 0.0;
-                    addRow(layer, inTotal, y - wide->pad, xBegin - wide->pad, xEnd - wide->pad, row);
-                }
-            }
-        });
-        tbb::parallel_for(tbb::blocked_range<int>(box.y0, box.y1 + 1, 16), [&](const tbb::blocked_range<int>& rows) {
-            for (int y = rows.begin(); y != rows.end(); ++y) std::fill(wide->at(box.x0, y), wide->at(box.x0, y) + span, 0.0);
-        });
+        if (xBegin >= xEnd) continue;  // all off the image: nothing to add
+        const int y0 = std::max({box.y0, wide->pad, band * kBandRows + wide->pad});
+        const int y1 = std::min({box.y1 + 1, wide->pad + settings_.heightPx, (band + 1) * kBandRows + wide->pad});
+        for (int y = y0; y < y1; ++y) {
+            // (In place: the buffer is cleared by finishEndPass.)
+            double* row = wide->at(xBegin, y);
+            for (int i = 0; i < (xEnd - xBegin) * 3; ++i) row[i] = row[i] > wide->floor ? row[i] : 0.0;
+            addRow(layer, inTotal, y - wide->pad, xBegin - wide->pad, xEnd - wide->pad, row);
+        }
     }
 }
 
@@ -390,54 +392,96 @@ void Film::addBand(int band, int layer, const double* rows, bool inTotal) {
 }
 
 void Film::endPass(std::int64_t photons) {
-    integrateWideSplats();
+    beginEndPass();
+    tbb::parallel_for(tbb::blocked_range<int>(0, bandCount(), 1), [&](const tbb::blocked_range<int>& bands) {
+        for (int band = bands.begin(); band != bands.end(); ++band) endPassInBand(band, photons);
+    });
+    finishEndPass();
+}
+
+void Film::beginEndPass() { integrateWideSplats(); }
+
+void Film::endPassInBand(int band, std::int64_t photons) {
+    // The wide kernels' rows after every other addition to the band, as one pass adds them.
+    addWideSplatsInBand(band);
     const double scale = 1.0 / (static_cast<double>(photons) * pixelMm_ * pixelMm_ / kMm2PerM2);
     const glm::dmat3 toRgb = xyzToLinearSrgbMatrix();
+    const int target = replicates_ > 0 ? passes_ % replicates_ : 0;
     for (Group& group : groups_) {
         Tiles& pass = *group.pass;
         // Only the tiles this pass reached, each in one go (a tile's pixels are contiguous in it,
-        // and in the sums' tile of the same index), the tiles in parallel: each writes its own.
-        // A pixel the pass left at zero adds zeros and is skipped. The pass's tiles are zeroed
-        // and kept for the next pass's allocations (fresh ones cost page faults every pass).
-        const int target = replicates_ > 0 ? passes_ % replicates_ : 0;
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, pass.tiles.size(), 16), [&](const tbb::blocked_range<size_t>& range) {
+        // and in the sums' tile of the same index): the band's row of tiles. A pixel the pass
+        // left at zero adds zeros and is skipped. The pass's tiles are zeroed and kept for the
+        // next pass's allocations (fresh ones cost page faults every pass).
+        const size_t firstTile = static_cast<size_t>(band) * pass.tilesX;
+        for (size_t t = firstTile; t != firstTile + static_cast<size_t>(pass.tilesX); ++t) {
             constexpr int kValues = kTilePx * kTilePx * 3;
-            for (size_t t = range.begin(); t != range.end(); ++t) {
-                double* p = pass.tiles[t].get();
-                if (!p) continue;
-                if (std::all_of(p, p + kValues, [](double v) { return v == 0.0; })) {
-                    pass.recycle(t);
-                    continue;
-                }
-                auto tileOf = [&](Tiles& sums) {
-                    auto& tile = sums.tiles[t];
-                    if (!tile) tile = std::make_unique<double[]>(kValues);  // zeroed
-                    return tile.get();
-                };
-                double* s = tileOf(*group.sums[target]);
-                double* q = replicates_ > 0 ? nullptr : tileOf(*group.sums[1]);
-                // Every pixel, without a test: a pixel at zero converts to +0 in every channel,
-                // which leaves the sums' bits as they are (they start at +0 and never become −0).
-                auto accumulate = [&](auto withSquares) {
-                    for (int i = 0; i < kValues; i += 3) {
-                        const glm::dvec3 rgb = toRgb * (glm::dvec3(p[i], p[i + 1], p[i + 2]) * scale);
-                        for (int c = 0; c < 3; ++c) {
-                            s[i + c] += rgb[c];
-                            if constexpr (decltype(withSquares)::value) q[i + c] += rgb[c] * rgb[c];
-                        }
-                    }
-                };
-                if (q) accumulate(std::true_type{});
-                else accumulate(std::false_type{});
-                std::fill(p, p + kValues, 0.0);
+            double* p = pass.tiles[t].get();
+            if (!p) continue;
+            if (std::all_of(p, p + kValues, [](double v) { return v == 0.0; })) {
                 pass.recycle(t);
+                continue;
             }
+            auto tileOf = [&](Tiles& sums) {
+                auto& tile = sums.tiles[t];
+                if (!tile) tile = std::make_unique<double[]>(kValues);  // zeroed
+                return tile.get();
+            };
+            double* s = tileOf(*group.sums[target]);
+            double* q = replicates_ > 0 ? nullptr : tileOf(*group.sums[1]);
+            // Every pixel, without a test: a pixel at zero converts to +0 in every channel, which
+            // leaves the sums' bits as they are (they start at +0 and never become −0).
+            auto accumulate = [&](auto withSquares) {
+                for (int i = 0; i < kValues; i += 3) {
+                    const glm::dvec3 rgb = toRgb * (glm::dvec3(p[i], p[i + 1], p[i + 2]) * scale);
+                    for (int c = 0; c < 3; ++c) {
+                        s[i + c] += rgb[c];
+                        if constexpr (decltype(withSquares)::value) q[i + c] += rgb[c] * rgb[c];
+                    }
+                }
+            };
+            if (q) accumulate(std::true_type{});
+            else accumulate(std::false_type{});
+            std::fill(p, p + kValues, 0.0);
+            pass.recycle(t);
+        }
+    }
+    // The estimates wanted after this pass, this band's tiles (estimateAtPassEnd).
+    const int passes = passes_ + 1;
+    if (!(replicates_ > 0 ? passes >= replicates_ : passes >= 2)) return;  // (no variance yet: hasVariance)
+    for (size_t g = 0; g < passEndEstimates_.size(); ++g) {
+        std::vector<ErrorEstimate>& perTile = passEndEstimates_[g];
+        if (perTile.empty()) continue;
+        const size_t tilesX = static_cast<size_t>(groups_[g].sums[0]->tilesX), firstTile = static_cast<size_t>(band) * tilesX;
+        for (size_t t = firstTile; t != firstTile + tilesX; ++t) perTile[t] = tileEstimate(groups_[g], t, passes);
+    }
+}
+
+void Film::finishEndPass() {
+    // The wide kernels' buffers cleared for the next pass (over the box they were integrated in).
+    for (const auto& wide : wide_) {
+        if (!wide || wide->integrated.x1 < 0) continue;
+        const WideSplats::Box box = wide->integrated;
+        const int span = (box.x1 - box.x0 + 1) * 3;
+        tbb::parallel_for(tbb::blocked_range<int>(box.y0, box.y1 + 1, 16), [&](const tbb::blocked_range<int>& rows) {
+            for (int y = rows.begin(); y != rows.end(); ++y) std::fill(wide->at(box.x0, y), wide->at(box.x0, y) + span, 0.0);
         });
+        wide->integrated = WideSplats::Box{};
     }
     counts_ = pendingCounts_;
     powers_ = pendingPowers_;
     ++passes_;
     neighbourGrowth_ = std::pow(static_cast<double>(passes_), 2.0 / 3.0);
+    // The estimates made band by band, their tiles' parts added in tile order as errorEstimate adds them.
+    if (!hasVariance()) return;
+    std::lock_guard<std::mutex> lock(*estimateMutex_);
+    if (estimates_.size() != groups_.size()) estimates_.assign(groups_.size(), {});
+    for (size_t g = 0; g < passEndEstimates_.size(); ++g) {
+        if (passEndEstimates_[g].empty()) continue;
+        ErrorEstimate e;
+        for (const ErrorEstimate& t : passEndEstimates_[g]) e.sumVariance += t.sumVariance, e.squaredNorm += t.squaredNorm;
+        estimates_[g] = {passes_, e};
+    }
 }
 
 std::vector<float> Film::irradianceXyz(int layer, double photonsEmitted) const {
@@ -508,11 +552,11 @@ bool Film::tileSums(const Group& group, size_t tile, const double** sums) const 
 
 // The variance of the mean over passes of values[i] (i a pixel's channel within a tile), where
 // sums are the group's running sums of that tile (null where no pass reached it).
-double Film::varianceOfMean(const double* const* sums, int i) const {
-    if (replicates_ > 0) return replicateVarianceOfMean(sums, i, replicates_, passes_);
+double Film::varianceOfMean(const double* const* sums, int i, int passes) const {
+    if (replicates_ > 0) return replicateVarianceOfMean(sums, i, replicates_, passes);
     if (!sums[0]) return 0.0;
     // Unbiased sample variance of the pass images, divided by n: the variance of their mean.
-    const double n = passes_;
+    const double n = passes;
     const double mean = sums[0][i] / n;
     return std::max(0.0, (sums[1][i] - n * mean * mean) / (n - 1.0)) / n;
 }
@@ -531,7 +575,7 @@ std::vector<float> Film::varianceRgb(int group) const {
             for (int x = tx * kTilePx; x < x1; ++x)
                 for (int c = 0; c < 3; ++c) {
                     const int i = ((y - ty * kTilePx) * kTilePx + (x - tx * kTilePx)) * 3 + c;
-                    out[(static_cast<size_t>(y) * w + x) * 3 + c] = static_cast<float>(varianceOfMean(sums, i));
+                    out[(static_cast<size_t>(y) * w + x) * 3 + c] = static_cast<float>(varianceOfMean(sums, i, passes_));
                 }
     }
     return out;
@@ -541,53 +585,64 @@ Film::ErrorEstimate Film::errorEstimate(int group) const {
     if (!hasVariance()) return {};
     const Group& g = groups_.at(group);
     // The render loop asks after every pass (to stop, for the progress bar, for the report): the
-    // sums are kept until the next pass changes them.
+    // sums are kept until the next pass changes them (or made as it ends, estimateAtPassEnd).
     std::lock_guard<std::mutex> lock(*estimateMutex_);
     if (estimates_.size() != groups_.size()) estimates_.assign(groups_.size(), {});
     if (estimates_[group].passes == passes_) return estimates_[group].estimate;
-    const double n = passes_;
     // Tile by tile over the tiles that exist (a pixel no pass reached has no variance), the tiles
-    // in parallel and their sums added in tile order (the same answer for any thread count). With
-    // independent passes, sums[0] holds the pass images' sum; with replicates, every sum does.
-    const int sumsOfPasses = replicates_ > 0 ? replicates_ : 1;
+    // in parallel and their sums added in tile order (the same answer for any thread count).
     const size_t tiles = g.sums[0]->tiles.size();
     std::vector<ErrorEstimate> perTile(tiles);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, tiles, 8), [&](const tbb::blocked_range<size_t>& range) {
-        const double* sums[kMaxReplicates];
-        for (size_t t = range.begin(); t != range.end(); ++t) {
-            if (!tileSums(g, t, sums)) continue;
-            ErrorEstimate& e = perTile[t];
-            constexpr int kValues = kTilePx * kTilePx * 3;
-            if (replicates_ == 0) {
-                // varianceOfMean's formula with its divisions as multiplications (the loop runs
-                // over the whole image, dozens of times in a long render), two sums per quantity.
-                if (!sums[0]) continue;  // (the squares exist wherever the sums do)
-                const double* sum = sums[0];
-                const double* squares = sums[1];
-                const double inverseN = 1.0 / n, inverseDegrees = 1.0 / (n - 1.0);
-                double variance[2] = {0.0, 0.0}, norm[2] = {0.0, 0.0};
-                for (int i = 0; i < kValues; ++i) {
-                    const double mean = sum[i] * inverseN;
-                    variance[i & 1] += std::max(0.0, (squares[i] - n * mean * mean) * inverseDegrees) * inverseN;
-                    norm[i & 1] += mean * mean;
-                }
-                e.sumVariance = variance[0] + variance[1];
-                e.squaredNorm = norm[0] + norm[1];
-                continue;
-            }
-            for (int i = 0; i < kValues; ++i) {
-                double total = 0.0;
-                for (int k = 0; k < sumsOfPasses; ++k) total += sums[k] ? sums[k][i] : 0.0;
-                const double mean = total / n;
-                e.sumVariance += varianceOfMean(sums, i);
-                e.squaredNorm += mean * mean;
-            }
-        }
+        for (size_t t = range.begin(); t != range.end(); ++t) perTile[t] = tileEstimate(g, t, passes_);
     });
     ErrorEstimate e;
     for (const ErrorEstimate& t : perTile) e.sumVariance += t.sumVariance, e.squaredNorm += t.squaredNorm;
     estimates_[group] = {passes_, e};
     return e;
+}
+
+Film::ErrorEstimate Film::tileEstimate(const Group& g, size_t t, int passes) const {
+    // With independent passes, sums[0] holds the pass images' sum; with replicates, every sum does.
+    ErrorEstimate e;
+    const double* sums[kMaxReplicates];
+    if (!tileSums(g, t, sums)) return e;
+    const double n = passes;
+    constexpr int kValues = kTilePx * kTilePx * 3;
+    if (replicates_ == 0) {
+        // varianceOfMean's formula with its divisions as multiplications (the loop runs over the
+        // whole image, dozens of times in a long render), two sums per quantity.
+        if (!sums[0]) return e;  // (the squares exist wherever the sums do)
+        const double* sum = sums[0];
+        const double* squares = sums[1];
+        const double inverseN = 1.0 / n, inverseDegrees = 1.0 / (n - 1.0);
+        double variance[2] = {0.0, 0.0}, norm[2] = {0.0, 0.0};
+        for (int i = 0; i < kValues; ++i) {
+            const double mean = sum[i] * inverseN;
+            variance[i & 1] += std::max(0.0, (squares[i] - n * mean * mean) * inverseDegrees) * inverseN;
+            norm[i & 1] += mean * mean;
+        }
+        e.sumVariance = variance[0] + variance[1];
+        e.squaredNorm = norm[0] + norm[1];
+        return e;
+    }
+    for (int i = 0; i < kValues; ++i) {
+        double total = 0.0;
+        for (int k = 0; k < replicates_; ++k) total += sums[k] ? sums[k][i] : 0.0;
+        const double mean = total / n;
+        e.sumVariance += varianceOfMean(sums, i, passes);
+        e.squaredNorm += mean * mean;
+    }
+    return e;
+}
+
+void Film::estimateAtPassEnd(const std::vector<int>& groups) {
+    passEndEstimates_.assign(groups_.size(), {});
+    for (const int group : groups) {
+        if (group < 0 || group >= static_cast<int>(groups_.size()))
+            throw std::invalid_argument("Film::estimateAtPassEnd: no group " + std::to_string(group));
+        passEndEstimates_[static_cast<size_t>(group)].assign(groups_[group].sums[0]->tiles.size(), ErrorEstimate{});
+    }
 }
 
 }  // namespace flare

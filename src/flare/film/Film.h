@@ -127,9 +127,24 @@ public:
     // Adds a band of pixel values (W per pixel, XYZ): `rows` holds kBandRows rows (fewer in the
     // last band) of width × 3 doubles from the band's first row. Zeros are skipped.
     void addBand(int band, int layer, const double* rows, bool inTotal = true);
+    // Adds values to the pixels [xBegin, xEnd) of row y (3 per pixel): what addBand adds to them
+    // (a tile's run of zeros is skipped). Rows of different bands may be added in parallel.
+    void addRowPart(int layer, int y, int xBegin, int xEnd, const double* values, bool inTotal = true) {
+        addRow(layer, inTotal, y, xBegin, xEnd, values);
+    }
     // Ends a pass of `photons` photons (wide kernels' splats reach the layers here) (the divisor of this pass's image in the variance estimate;
     // every pass of a render must have the same count for the variance to be meaningful).
     void endPass(std::int64_t photons);
+    // endPass in three steps, for a pass whose bands are complete at different times (a distributed
+    // render's rank 0 ends its own bands while the others' images are on their way,
+    // RenderDistributed.cpp): beginEndPass once every splat of the pass is made (the wide kernels
+    // are integrated down whole columns, and what counts as zero in them follows their largest
+    // value anywhere); endPassInBand for every band once it has all its other additions (bands in
+    // any order, in parallel: a band's tiles are its own); then finishEndPass. endPass is these
+    // three: the film is bitwise the same.
+    void beginEndPass();
+    void endPassInBand(int band, std::int64_t photons);
+    void finishEndPass();
 
     // Irradiance of a layer, W/m² in XYZ, interleaved, row-major from the top row, after
     // `photonsEmitted` photons in all: accumulated power / (photons · pixel area).
@@ -154,6 +169,13 @@ public:
         double relative() const { return squaredNorm > 0.0 ? std::sqrt(sumVariance / squaredNorm) : 0.0; }
     };
     ErrorEstimate errorEstimate(int group) const;
+    // Groups whose estimate is made as a pass ends, band by band (endPassInBand: each tile's part
+    // while the tile is at hand; finishEndPass adds them in tile order), for a caller that asks for
+    // it after every pass and has a band's end of the pass to spare (a distributed render's rank
+    // 0, waiting for the others' bands): bitwise what errorEstimate makes when asked. The others
+    // are made when asked. Replaces the last call's groups; throws std::invalid_argument for a
+    // group that does not exist.
+    void estimateAtPassEnd(const std::vector<int>& groups);
     // The measure of a photon's power that a kernel by power holds: X + Y + Z, so that a blue
     // or red photon (small Y) is not spread less than a green one of the same energy.
     static double kernelPower(const glm::dvec3& xyzPowerW) { return std::max(xyzPowerW.x + xyzPowerW.y + xyzPowerW.z, 0.0); }
@@ -202,13 +224,18 @@ private:
     // image, the last those below).
     void addWideKernel(int layer, bool inTotal, int cx, int cy, int m, const glm::dvec3& value, int rowBegin,
                        int rowEnd);
+    // beginEndPass: the wide kernels' second differences integrated (not yet added to the layers);
+    // endPassInBand: their rows of one band added.
     void integrateWideSplats();
+    void addWideSplatsInBand(int band);
     // irradianceXyzFootprint of one layer's tiles (double or float), `scale` from power to irradiance.
     template <class Store>
     FilmWindow footprint(const Store& tiles, double scale) const;
     // A tile's running sums in `group` (null where that sum has no tile); false if none has.
     bool tileSums(const Group& group, size_t tile, const double** sums) const;
-    double varianceOfMean(const double* const* sums, int i) const;
+    double varianceOfMean(const double* const* sums, int i, int passes) const;
+    // A tile's part of a group's errorEstimate after `passes` passes (zero where it has no sums).
+    ErrorEstimate tileEstimate(const Group& group, size_t tile, int passes) const;
 
     FilmSettings settings_;
     std::vector<LayerKernel> layerKernels_;
@@ -230,6 +257,7 @@ private:
         ErrorEstimate estimate;
     };
     mutable std::vector<CachedEstimate> estimates_;
+    std::vector<std::vector<ErrorEstimate>> passEndEstimates_;  // per group: per tile, or empty (estimateAtPassEnd)
     std::unique_ptr<std::mutex> estimateMutex_ = std::make_unique<std::mutex>();  // (movable)
     // Per layer and inTotal (0, 1): the wide kernels' second differences of the running pass,
     // allocated by the first wide splat (under wideMutex_: bands run in parallel).

@@ -273,6 +273,24 @@ void readBandImage(const std::vector<char>& message, const BandImage& image, int
     readRuns(in, image.band, widthPx, heightPx, rows.data());
 }
 
+void forEachBandImageRun(const std::vector<char>& message, const BandImage& image, int widthPx, int heightPx,
+                         const BandRunAdder& add) {
+    Reader in(message);
+    in.skip(image.at);
+    // (Each run copied out: the message's doubles are not aligned.)
+    double values[kRunPx * 3];
+    const auto runs = in.get<std::uint32_t>();
+    for (std::uint32_t r = 0; r < runs; ++r) {
+        const auto y = in.get<std::uint32_t>(), x0 = in.get<std::uint32_t>();
+        if (y >= static_cast<std::uint32_t>(rowsOfBand(image.band, heightPx)) ||
+            x0 >= static_cast<std::uint32_t>(widthPx) || x0 % kRunPx != 0)
+            in.fail("a band image's run out of range");
+        const int pixels = std::min<int>(kRunPx, widthPx - static_cast<int>(x0));
+        in.getBytes(reinterpret_cast<char*>(values), static_cast<size_t>(pixels) * 3 * sizeof(double));
+        add(image.band * Film::kBandRows + static_cast<int>(y), static_cast<int>(x0), static_cast<int>(x0) + pixels, values);
+    }
+}
+
 void writeTraceTime(double seconds, double cpuSeconds, std::vector<char>& out) {
     put(out, kTraceTimeTag);
     put(out, seconds);

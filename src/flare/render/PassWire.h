@@ -12,6 +12,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "flare/render/BeamStrategy.h"
@@ -66,6 +67,12 @@ BandMessage readBandMessage(const std::vector<char>& message, int widthPx, int h
 // Band image `image` of `message` into `rows` (kBandRows × widthPx × 3 values, zeroed here).
 void readBandImage(const std::vector<char>& message, const BandImage& image, int widthPx, int heightPx,
                    std::vector<double>& rows);
+// The same run by run, without a band of zeros around them: add(row, xBegin, xEnd, values) for each
+// run in the order written (row: the film's; values: 3 per pixel, xEnd − xBegin pixels), as
+// Film::addRowPart takes them: the film receives exactly what addBand of the band's rows adds.
+using BandRunAdder = std::function<void(int rowPx, int xBeginPx, int xEndPx, const double* values)>;
+void forEachBandImageRun(const std::vector<char>& message, const BandImage& image, int widthPx, int heightPx,
+                         const BandRunAdder& add);
 
 PassMessage readPassResults(const std::vector<char>& message, const FilmFrame& frame, std::vector<BatchResult>& batches,
                             std::vector<BeamJob>& beams);

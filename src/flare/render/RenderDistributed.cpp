@@ -12,7 +12,10 @@
 //      without waiting for rank 0 to take them (PassExchange::sendToRoot), and trace their share
 //      of the next pass at once;
 //   3. rank 0 adds them to the film in their bands, after the hits, as one process adds them,
-//      and ends the pass: the film, its error sums and the tallies stay rank 0's alone.
+//      and ends the pass: the film, its error sums and the tallies stay rank 0's alone. It ends
+//      its own bands' pass (the film's per-pass sums, the error estimates asked after every pass)
+//      before the others' images arrive, band by band as one process ends them (Film::endPassInBand),
+//      so that what it does alone after them is their bands' part.
 // So every band receives the same additions in the same order as one process makes them: the
 // image is bitwise one process's, whatever the split of the jobs and of the bands, which may
 // therefore follow the measured costs: at every pass's exchange rank 0 broadcasts the next pass's
@@ -69,6 +72,12 @@ struct DistributedPasses {
     // its band phase and waiting for theirs less their band phase, from the exchange on (where all
     // meet), at least 0. Rank 0 has that much less time than they do before the next exchange.
     double lagS = 0.0;
+    // Rank 0's time between passes (after its last pass, before this one: the progress line, the
+    // stop rule), which the others spend tracing: counted with its end of the pass. The smaller of
+    // the last two gaps, so that a one-off (a checkpoint written every minute) does not shrink the
+    // next pass's share.
+    std::chrono::steady_clock::time_point lastPassEnd{};
+    double betweenS = 0.0, lastGapS = -1.0;
     long rootJobs = 0, othersJobs = 0;
     std::vector<double> bandSeconds, besidesBandsS;
 };
@@ -82,16 +91,17 @@ double secondsSince(std::chrono::steady_clock::time_point t) {
 double cpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
 
 // Rank 0's share (of kShareSteps) from the measured costs (balancedShare): rank 0 begins adding the
-// others' bands lagS after them and ends the pass in mergeS; each side traces at its own measured
-// cost per job (they differ: each rank encodes its beams for the other ranks' bands, rank 0 for
-// fewer of them). Before rank 0 has merged a pass, or before both costs are known: half an equal
+// others' bands lagS after them, ends the pass in mergeS and spends betweenS before the next (its
+// plan of the pass after next, the progress line, the stop rule); each side traces at its own
+// measured cost per job (they differ: each rank encodes its beams for the other ranks' bands, rank
+// 0 for fewer of them). Before rank 0 has merged a pass, or before both costs are known: half an equal
 // share.
 int balancedRootShare(const DistributedPasses& d, long jobs, int ranks) {
     if (d.rootJobs <= 0 || d.othersJobs <= 0 || !(d.rootTraceS > 0.0) || !(d.othersTraceS > 0.0) || !(d.mergeS >= 0.0) ||
         jobs <= 0)
         return kShareSteps / (2 * ranks);
     return balancedShare(jobs, ranks, d.rootTraceS / static_cast<double>(d.rootJobs),
-                         d.othersTraceS / static_cast<double>(d.othersJobs), d.lagS + d.mergeS);
+                         d.othersTraceS / static_cast<double>(d.othersJobs), d.lagS + d.mergeS + d.betweenS);
 }
 
 // The bands split by rows: rank r owns bands [⌊r·B/R⌋, ⌊(r + 1)·B/R⌋).
@@ -144,6 +154,17 @@ void Renderer::setExchange(PassExchange* exchange) {
     distributed_->bandStart = renderer::bandsByRows(film_.bandCount(), ranks);
     distributed_->nextRootShare = distributed_->rootShare;
     distributed_->nextBandStart = distributed_->bandStart;
+    // Rank 0 makes the error estimates asked after every pass (the flare's: the progress line and
+    // the stop rule; the adaptive plan's) band by band as the pass ends: its own bands' part while
+    // the others' bands are on their way (Film::estimateAtPassEnd).
+    if (exchange_->rank() == 0) {
+        std::vector<int> groups;
+        if (!options_.ghostGroupsOnly) groups.push_back(kGroupFlare);
+        for (const RenderOptions::ErrorTarget& target : options_.errorTargets)
+            if (target.group >= 0 && target.group < kVarianceGroupCount) groups.push_back(target.group);
+        if (beamsGroup_ >= 0) groups.push_back(beamsGroup_);
+        film_.estimateAtPassEnd(groups);
+    }
 }
 
 void Renderer::runDistributedPass() {
@@ -289,6 +310,11 @@ void Renderer::runDistributedPass() {
         return;
     }
 
+    if (d.lastPassEnd != std::chrono::steady_clock::time_point{}) {
+        const double gapS = renderer::secondsSince(d.lastPassEnd);
+        d.betweenS = d.lastGapS >= 0.0 ? std::min(gapS, d.lastGapS) : gapS;
+        d.lastGapS = gapS;
+    }
     const int replicate = replicateOfPass(statistics_.passes);
     startPass();
     const int batches = batchCount();
@@ -351,6 +377,13 @@ void Renderer::runDistributedPass() {
         for (int band = range.begin(); band != range.end(); ++band)
             if (band < firstOwn || band >= endOwn) splatHitsInBand(band, byBand[band]);
     });
+    // Every hit is in: the wide kernels are integrated, and rank 0's bands, complete, end their pass
+    // now, while the others' bands are on their way (Film::beginEndPass).
+    const std::int64_t photons = options_.photonsPerPass();
+    film_.beginEndPass();
+    tbb::parallel_for(tbb::blocked_range<int>(firstOwn, endOwn, 1), [&](const tbb::blocked_range<int>& range) {
+        for (int band = range.begin(); band != range.end(); ++band) film_.endPassInBand(band, photons);
+    });
     const double rootBandsS = renderer::secondsSince(bandsStart);
     exchangeCosts_.bandsS += rootBandsS;
     exchangeCosts_.bandsCpuS += renderer::cpuSeconds() - bandsCpuStart;
@@ -393,17 +426,23 @@ void Renderer::runDistributedPass() {
     d.lagS = std::max(0.0, rootBandsS + bandsWaitS - othersBandsS / (ranks - 1));
     exchangeCosts_.othersBandsCpuS += othersBandsCpuS / (ranks - 1);
 
+    // The others' bands: their images, each band's in its owner's order, straight from the
+    // messages' runs, then the band's end of the pass.
     tbb::parallel_for(tbb::blocked_range<int>(0, bandCount, 1), [&](const tbb::blocked_range<int>& range) {
-        std::vector<double> rows;
-        for (int band = range.begin(); band != range.end(); ++band)
-            for (const auto& [r, image] : imagesOfBand[band]) {
-                renderer::readBandImage(d.bandsIn[r], image, width, height, rows);
-                film_.addBand(band, image.layer, rows.data(), image.inTotal);
-            }
+        for (int band = range.begin(); band != range.end(); ++band) {
+            if (band >= firstOwn && band < endOwn) continue;
+            for (const auto& [r, image] : imagesOfBand[band])
+                renderer::forEachBandImageRun(d.bandsIn[r], image, width, height,
+                                              [&](int row, int xBegin, int xEnd, const double* values) {
+                                                  film_.addRowPart(image.layer, row, xBegin, xEnd, values, image.inTotal);
+                                              });
+            film_.endPassInBand(band, photons);
+        }
     });
     addPassTallies(beamJobs, replicate);
-    film_.endPass(options_.photonsPerPass());
+    film_.finishEndPass();
     d.mergeS = renderer::secondsSince(mergeStart);
+    d.lastPassEnd = std::chrono::steady_clock::now();
     exchangeCosts_.mergeS += d.mergeS;
     exchangeCosts_.mergeCpuS += renderer::cpuSeconds() - mergeCpuStart;
     advanceSplit();

@@ -1,8 +1,11 @@
 // The sensor film as a density estimator: exact power conservation of its kernels (and the exact
 // off-image loss at the border), the camera-view orientation, the progressive and adaptive radii,
 // the per-pass variance estimate against a known variance (χ²), checkpoints and bad settings,
-// the wide kernels added at the end of a pass and the adaptive kernel by power.
+// the wide kernels added at the end of a pass (whole or band by band) and the adaptive kernel by
+// power.
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <numeric>
 #include <numbers>
@@ -884,6 +887,79 @@ TEST(Film, AKernelByPowerSpreadsAHeavyPhotonWider) {
     EXPECT_EQ(film.radiusPx(1, probe, 0.0), 1.0);
     // The count layer ignores the power.
     EXPECT_EQ(film.radiusPx(0, probe, 100.0), byCount);
+}
+
+// A distributed render's rank 0 ends its own bands' pass before the others' band images arrive
+// (Film::beginEndPass, endPassInBand, finishEndPass): every band, ended when its additions are
+// all in and in any order, gives bitwise the film of endPass, every layer, group and estimate.
+// Wide kernels (added in endPassInBand, after the band's other additions) and tight ones, two
+// layers, a further variance group (its estimate made as the bands end: estimateAtPassEnd), three
+// passes, with independent passes and with replicates; one band's rows arrive after another band
+// has ended (a wide kernel's rows added in beginEndPass would come before them and round otherwise).
+TEST(Film, TheEndOfAPassInStepsIsTheWholeEndPassBitwise) {
+  for (const int replicates : {0, 2}) {
+    SCOPED_TRACE("replicates " + std::to_string(replicates));
+    FilmSettings s = filmSettings(100, 90, Kernel::Adaptive);  // bands of rows 0-31, 32-63, 64-89
+    s.maxRadiusPx = 20.3;  // no counts in the first pass: every photon a wide tent
+    Film whole(s, 2), steps(s, 2);
+    for (Film* film : {&whole, &steps}) {
+        film->setLayerKernel(1, Kernel::Fixed, 1, 1.0);
+        film->addVarianceGroup({1});
+        film->setReplicates(replicates);
+    }
+    // Group 1's estimate made as each band ends (estimateAtPassEnd), group 0's when asked.
+    steps.estimateAtPassEnd({1});
+    Rng rng(7, 31);
+    std::vector<double> rows(static_cast<size_t>(Film::kBandRows) * s.widthPx * 3);
+    for (int pass = 0; pass < 3; ++pass) {
+        for (int n = 0; n < 200; ++n) {
+            const glm::dvec2 at = sensorAt(s, -10.0 + 120.0 * rng.uniform(), -10.0 + 110.0 * rng.uniform());
+            const glm::dvec3 power(rng.uniform(), rng.uniform(), rng.uniform());
+            const int layer = n % 2;
+            whole.splat(layer, at, power, n % 3 != 0);
+            for (int band = 0; band < steps.bandCount(); ++band) steps.splatInBand(band, layer, at, power, n % 3 != 0);
+        }
+        // Two images per band (two beams' layers), every other run of them lit: a pixel's
+        // additions round differently in another order (a + b + wide against a + wide + b).
+        std::vector<std::vector<double>> images;
+        for (int band = 0; band < whole.bandCount(); ++band)
+            for (int image = 0; image < 2; ++image) {
+                for (size_t i = 0; i < rows.size(); ++i) rows[i] = (i / 96) % 2 == 0 ? rng.uniform() : 0.0;
+                images.push_back(rows);
+                whole.addBand(band, 0, rows.data());
+            }
+        steps.addBand(1, 0, images[2].data());
+        steps.addBand(1, 0, images[3].data());
+        steps.beginEndPass();
+        steps.endPassInBand(1, 1000);
+        steps.addBand(2, 0, images[4].data());
+        steps.addBand(2, 0, images[5].data());
+        steps.endPassInBand(2, 1000);
+        // Band 0 row by row, as the band images' runs arrive (Film::addRowPart).
+        for (int image = 0; image < 2; ++image)
+            for (int y = 0; y < Film::kBandRows; ++y)
+                steps.addRowPart(0, y, 0, s.widthPx, images[image].data() + static_cast<size_t>(y) * s.widthPx * 3);
+        steps.endPassInBand(0, 1000);
+        steps.finishEndPass();
+        whole.endPass(1000);
+        if (pass >= 1) {
+            EXPECT_EQ(whole.errorEstimate(1).sumVariance, steps.errorEstimate(1).sumVariance) << "pass " << pass;
+            EXPECT_EQ(whole.errorEstimate(1).squaredNorm, steps.errorEstimate(1).squaredNorm) << "pass " << pass;
+            EXPECT_GT(steps.errorEstimate(1).sumVariance, 0.0);
+        }
+    }
+    ASSERT_EQ(steps.passes(), 3);
+    for (int layer = 0; layer < 2; ++layer) {
+        const std::vector<float> a = whole.irradianceXyz(layer, 3000.0), b = steps.irradianceXyz(layer, 3000.0);
+        EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0) << "layer " << layer;
+        EXPECT_GT(*std::max_element(a.begin(), a.end()), 0.0f);
+    }
+    for (int group = 0; group < 2; ++group) {
+        EXPECT_EQ(whole.varianceRgb(group), steps.varianceRgb(group)) << "group " << group;
+        EXPECT_EQ(whole.errorEstimate(group).sumVariance, steps.errorEstimate(group).sumVariance) << "group " << group;
+        EXPECT_EQ(whole.errorEstimate(group).squaredNorm, steps.errorEstimate(group).squaredNorm) << "group " << group;
+    }
+  }
 }
 
 }  // namespace
