@@ -313,7 +313,7 @@ class RadiiMatch(unittest.TestCase):
         # tenth of a millimetre apart at the hundredth. Below 10 000 mm the rule stays a hundredth
         # (0.0101 for two roundings).
         self.assertTrue(merge._same_radii((26667.4, 30.0), (26667.45, 30.0)))
-        self.assertTrue(merge._same_radii((-54691.4,), (-54691.449,)))
+        self.assertTrue(merge._same_radii((54691.4,), (54691.362,)))  # JP 2013-140404 Example 1
         self.assertFalse(merge._same_radii((26667.3,), (26667.45,)))
         self.assertTrue(merge._same_radii((-4571.82,), (-4571.83,)))
         self.assertFalse(merge._same_radii((-4571.80,), (-4571.83,)))
