@@ -324,12 +324,18 @@ def separate_stop(lens):
 # The zoom tables LensVisualizer added after the snapshot its git folder holds (lenses/zoom-tables/,
 # README.md there): the patent's numbers only, each file naming the LensVisualizer file and commit
 # they were read from. Read beside the git folder's; a later table replaces one of the same path.
+# A table of a patent LensVisualizer has not transcribed names its source instead, in a `source: "..."`
+# field (SOURCE), and is cited by its own path there.
 LATER_TABLES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lenses", "zoom-tables")
+
+
+SOURCE = re.compile(r'^\s*source:\s*"([^"]+)",?\s*$', re.M)
 
 
 def lensvisualizer_texts(git_dir, later=LATER_TABLES, git=None):
     """{LensVisualizer path: (text, commit)} of every .data.ts file: the git folder's at HEAD (commit
-    None: the folder's HEAD) and the later tables (`later`/<maker>/<file>, commit from their header)."""
+    None: the folder's HEAD) and the later tables (`later`/<maker>/<file>, commit from their header;
+    a table that names its `source` instead is keyed by its path in this repository, commit None)."""
     if git is None:
         def git(*a):
             return subprocess.run(["git", "--git-dir", git_dir, *a], capture_output=True, text=True,
@@ -349,8 +355,11 @@ def lensvisualizer_texts(git_dir, later=LATER_TABLES, git=None):
                 with open(os.path.join(folder, name), encoding="utf-8") as f:
                     text = f.read()
                 commit = re.search(r"\bcommit ([0-9a-f]{12,40})\b", text)
+                if SOURCE.search(text) and not commit:
+                    texts[f"lenses/zoom-tables/{maker}/{name}"] = (text, None)
+                    continue
                 if not commit:
-                    raise SystemExit(f"{os.path.join(folder, name)}: names no LensVisualizer commit")
+                    raise SystemExit(f"{os.path.join(folder, name)}: names no LensVisualizer commit and no source")
                 texts[f"src/lens-data/{maker}/{name}"] = (text, commit.group(1))
     return texts
 
@@ -380,9 +389,11 @@ def lensvisualizer_table(path, text, commit=None):
     # Each row's gap as the surface list prints it (the first state's): merge_zoom_states.py needs
     # the gap beside a stop that the table places in another air space than a library file does.
     thick = re.findall(r'\{\s*label:\s*"[^"]+",\s*R:\s*' + number + r',\s*d:\s*(' + number + r')', text)
+    source = SOURCE.search(text)
     return {"file": path, "commit": commit, "text": text, "focal_lengths": focal_lengths, "gaps": gaps,
             "labels": [lb for lb, _ in rows], "radii": [float(r) for _, r in rows],
-            "thicknesses": [float(t) for t in thick] if len(thick) == len(rows) else None}
+            "thicknesses": [float(t) for t in thick] if len(thick) == len(rows) else None,
+            "source": source.group(1) if source else None}
 
 
 def lensvisualizer_zooms(git_dir, later=LATER_TABLES):
@@ -425,9 +436,18 @@ def match_zoom(lens, info, tables, commit):
     names = ["wide", "tele"] if n == 2 else ["wide"] + (["mid"] if n == 3 else [f"mid{i}" for i in range(1, n - 1)]) + ["tele"]
     return {"positions": list(zip(names, table["focal_lengths"])), "gaps": gaps,
             "source": (f"the variable gaps at {n} zoom states (infinity focus) and the states' focal lengths are the "
-                       f"patent table's, as transcribed in LensVisualizer (github.com/ronbuening/LensVisualizer, "
-                       f"{table['file']}, commit {(table.get('commit') or commit)[:12]}; no licence stated there: only the patent's numbers "
-                       f"are taken, and the radii were matched to this collection file)")}
+                       f"patent table's, {table_citation(table, commit, 'this collection file')}")}
+
+
+def table_citation(table, commit, matched_to):
+    """Where a zoom table's numbers were read: LensVisualizer's file and commit, or, for a table of
+    lenses/zoom-tables that names its own source, that file and its source; and what its radii were
+    matched to."""
+    if table.get("source"):
+        return f"as {table['file']} gives them ({table['source']}; the radii were matched to {matched_to})"
+    return (f"as transcribed in LensVisualizer (github.com/ronbuening/LensVisualizer, {table['file']}, commit "
+            f"{(table.get('commit') or commit)[:12]}; no licence stated there: only the patent's numbers are taken, "
+            f"and the radii were matched to {matched_to})")
 
 
 def table_key(lens):

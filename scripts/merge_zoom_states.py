@@ -76,11 +76,17 @@ def _rows(text):
 def _same_radii(a, b):
     """The radii of a library file and of a table, both rounded to 0.01 mm, are the same: the file
     prints six significant figures of the collection's radius, so a value on a rounding boundary
-    can round to the neighbouring hundredth (-181.2948 is -181.295 in the file, -181.3 rounded);
-    a plane is 0 in the file and may be a huge radius in the table."""
+    can round to the neighbouring hundredth (-181.2948 is -181.295 in the file, -181.3 rounded),
+    and from 10 000 mm on six figures are coarser than the hundredth: there the two may differ by
+    half the sixth figure's unit as well (the patent's 26667.449 is 26667.4 in the file); a plane is
+    0 in the file and may be a huge radius in the table."""
     def plane(r):
         return 0.0 if abs(r) > 1e6 else r
-    return len(a) == len(b) and all(abs(plane(x) - plane(y)) <= 0.0101 for x, y in zip(a, b))
+
+    def tolerance(x, y):
+        big = max(abs(x), abs(y))
+        return 0.0101 + (0.5 * 10.0 ** (math.floor(math.log10(big)) - 5) if big >= 1e4 else 0.0)
+    return len(a) == len(b) and all(abs(plane(x) - plane(y)) <= tolerance(plane(x), plane(y)) for x, y in zip(a, b))
 
 
 # A cemented resin layer (the thin aspheric layer of a hybrid element) is at most this thick; some
@@ -303,6 +309,10 @@ F_NUMBER_OVERRIDES = {
         "the patent's F-numbers 3.6708 / 5.4085 / 5.9148 at 14.43 / 57.85 / 145.40 mm (US 2014/0347522 Example 3, "
         "Tables 9-12, as LensVisualizer's analysis of the example quotes them; its nominalFno 3.691 / 5.388 / 5.905 "
         "is its single fixed-stop fit to them and is not used)"),
+    "nikon-nikkor-z-dx-50-250mm-f4.5-6.3-vr": (
+        [4.63, 6.34],
+        "the patent's FNO 4.63-6.34 at 51.50 / 242.80 mm (WO 2020/105107 Example 1, as LensVisualizer's analysis of "
+        "the example quotes it; its nominalFno 4.5 / 5.1 / 6.3 is the product's f/4.5-6.3 and is not used)"),
     "tamron-sp-150-600mm-f5-6.3-di-vc-usd": (
         [4.99224, 5.87742, 6.53711],
         "the patent's F-numbers 4.99224 / 5.87742 / 6.53711 at 152.16 / 297.49 / 582.52 mm (US 10,545,321 B2 "
@@ -323,9 +333,14 @@ MODELLED_F_NUMBERS = {
 
 
 # Zooms whose patent table has a state outside the range the lens is named for (the name check,
-# docs/lens-library.md "Names", allows 5 %): the table's states kept (0-based), with why. The kept
-# states are the patent's, unchanged.
+# docs/lens-library.md "Names", allows 5 %), or a state whose F-number neither source gives: the
+# table's states kept (0-based), with why. The kept states are the patent's, unchanged.
 STATES = {
+    "nikon-nikkor-z-dx-50-250mm-f4.5-6.3-vr": (
+        [0, 2],
+        "WO 2020/105107 Example 1's F-numbers are quoted at its two ends only (FNO 4.63-6.34, in "
+        "LensVisualizer's analysis of the example; its nominalFno 4.5 / 5.1 / 6.3 is the product's and a value "
+        "for its display), so the positions are the 51.50 and 242.80 mm states"),
     "canon-ef100-300mm-f5.6": (
         [1, 2, 3],
         "JP S61-77818 Example 1 tabulates 69 / 100 / 198 / 290 mm; the 69 mm state lies outside the 100-300 mm the "
@@ -366,11 +381,10 @@ def merged_text(text, table, f_numbers, commit, patent=None, f_number_note=None,
         if tokens and tokens[0] == "f_number":
             stated_f = float(tokens[1])
     source = (f"the variable gaps at {n} zoom states (infinity focus) and the states' focal lengths are the patent "
-              f"table's{' (' + patent + ')' if patent else ''}, as transcribed in LensVisualizer (github.com/ronbuening/LensVisualizer, {table['file']}, "
-              f"commit {commit[:12]}; no licence stated there: only the patent's numbers are taken, and the radii were "
-              f"matched to this file), merged by scripts/merge_zoom_states.py")
+              f"table's{' (' + patent + ')' if patent else ''}, {imp.table_citation(table, commit, 'this file')}, "
+              f"merged by scripts/merge_zoom_states.py")
     if state_note:
-        source += f"; the zoom positions are the table's states a name allows: {state_note}"
+        source += f"; the zoom positions are the table's states kept (STATES): {state_note}"
     if held:
         source += f"; this file held the table's state {held + 1} ({names[held]}, its focal length {table['focal_lengths'][held]:g} mm)"
     if resplit:

@@ -159,6 +159,27 @@ SPECS = [
         "sensor_mm": (36.0, 24.0),
         "format": "35 mm full frame",
     },
+    # From a table that names its own source (not LensVisualizer's: it has none of this patent).
+    {
+        "lv": "lenses/zoom-tables/canon/CanonNewFD70210mmf4.data.ts",
+        "id": "canon-new-fd70-210mm-f4-us-4380377-ex1",
+        "folder": "canon",
+        "maker": "Canon",
+        "model": "New FD 70-210mm f/4, entered whole from its patent",
+        "patent": "US 4,380,377",
+        "example": 1,
+        "f_numbers": [4.0, 4.0, 4.0],
+        "f_number_source": "the patent's F/4 at 70.55 / 137.04 / 205.31 mm; the patent marks no stop: it sits 1 mm in "
+                           "front of group IV (fixed), where the library's file of this example (the Optical Bench's "
+                           "transcription) puts it, so the f-number stays the same as the lens zooms. That file keeps its "
+                           "one state: merged with the patent's gaps, its clear radii (estimates sized for the wide end) "
+                           "stop the f/4 beam at tele",
+        "sensor_mm": (36.0, 24.0),
+        "format": "35 mm full frame",
+        "why": "as printed, rows 7 and 8 (R 40.285 and -45.202 mm, 4.2 mm of air apart) meet 13.21 mm off the axis, "
+               "below the 13.82 and 13.77 mm the paraxial marginal ray at f/4 reaches there at tele: no clear radius "
+               "lets the patent's F/4 through at 205.31 mm",
+    },
 ]
 
 NUMBER = r"-?\d+(?:\.\d+)?(?:e[-+]?\d+)?"
@@ -167,7 +188,11 @@ NUMBER = r"-?\d+(?:\.\d+)?(?:e[-+]?\d+)?"
 def table_text(git_dir, path):
     """A LensVisualizer file's text and the commit it was read at: a later table of lenses/zoom-tables
     (import_lens_library.LATER_TABLES; its header names the commit) where one has the path, else the
-    git folder's at HEAD (commit None)."""
+    git folder's at HEAD (commit None). A path in lenses/zoom-tables/ itself is a table that names its
+    own source (import_lens_library.SOURCE), not LensVisualizer's: its text, commit None."""
+    if path.startswith("lenses/zoom-tables/"):
+        with open(os.path.join(imp.LATER_TABLES, *path.split("/")[2:]), encoding="utf-8") as f:
+            return f.read(), None
     later = os.path.join(imp.LATER_TABLES, *path.split("/")[2:])
     if os.path.isfile(later):
         with open(later, encoding="utf-8") as f:
@@ -320,7 +345,16 @@ def fmt(x):
     return text[:-2] if text.endswith(".0") else text
 
 
-def lens_text(spec, rows, focal, gaps, commit):
+def transcription(spec, commit, source):
+    """The header's sentence on where the table's numbers were read (comment lines)."""
+    if source:
+        return ["# " + line for line in textwrap.wrap(f"patent's, as {spec['lv']} gives them ({source}).", 104)]
+    return [f"# patent's, as transcribed in LensVisualizer (github.com/ronbuening/LensVisualizer, {spec['lv']},",
+            f"# commit {commit[:12]}; no licence stated there: only the patent's numbers are taken, none of that file's",
+            "# modelling values)."]
+
+
+def lens_text(spec, rows, focal, gaps, commit, source=None):
     n = len(focal)
     names = ["wide", "tele"] if n == 2 else ["wide"] + (["mid"] if n == 3 else [f"mid{i}" for i in range(1, n - 1)]) + ["tele"]
     w, h = spec["sensor_mm"]
@@ -339,9 +373,7 @@ def lens_text(spec, rows, focal, gaps, commit):
         "# Entered from the patent's tables by scripts/patent_zooms.py (docs/lens-library.md, \"Zooms\"): no file of",
         "# this focal range in the library could be given its zoom positions. Transcription: radii, thicknesses,",
         "# nd/Vd, the stop's place, each zoom state's focal length and variable gaps at infinity focus are the",
-        f"# patent's, as transcribed in LensVisualizer (github.com/ronbuening/LensVisualizer, {spec['lv']},",
-        f"# commit {commit[:12]}; no licence stated there: only the patent's numbers are taken, none of that file's",
-        "# modelling values).",
+        *transcription(spec, commit, source),
         f"# f-numbers: {spec['f_number_source']}.",
         "# Semi-apertures: the patent gives none. Derived here: at each surface the largest, over the zoom states,",
         "# of |paraxial marginal ray at the state's f-number| + |paraxial chief ray to the corner of the",
@@ -410,12 +442,14 @@ def main():
     try:
         for spec in SPECS:
             rows, focal, gaps = read_table(git_dir, spec["lv"], spec.get("aspheres", False))
-            text, names = lens_text(spec, rows, focal, gaps, table_text(git_dir, spec["lv"])[1] or commit)
+            raw, read_at = table_text(git_dir, spec["lv"])
+            source = imp.SOURCE.search(raw)
+            text, names = lens_text(spec, rows, focal, gaps, read_at or commit, source.group(1) if source else None)
             staged = os.path.join(staging, spec["id"] + ".lens")
             with open(staged, "w", encoding="utf-8") as f:
                 f.write(text)
             result = imp.check_files(flare, [staged])[staged]
-            source = f"{spec['lv']} (LensVisualizer; {spec['patent']} Example {spec['example']})"
+            source = f"{spec['lv']} ({'' if source else 'LensVisualizer; '}{spec['patent']} Example {spec['example']})"
             aside["set_aside"] = [e for e in aside["set_aside"] if e["source_file"] != source]
             if not result["ok"]:
                 detail = "entered from the patent (scripts/patent_zooms.py): " + "; ".join(

@@ -307,6 +307,47 @@ const LENS_DATA = {
                 self.assertIsNotNone(imp.lensvisualizer_table(name, text), name)
 
 
+class RadiiMatch(unittest.TestCase):
+    def test_six_figures_above_ten_metres(self):
+        # The files print six significant figures: 26667.449 (US 4,380,377's) is 26667.4 there, a
+        # tenth of a millimetre apart at the hundredth. Below 10 000 mm the rule stays a hundredth
+        # (0.0101 for two roundings).
+        self.assertTrue(merge._same_radii((26667.4, 30.0), (26667.45, 30.0)))
+        self.assertTrue(merge._same_radii((54691.4,), (54691.362,)))  # JP 2013-140404 Example 1
+        self.assertFalse(merge._same_radii((26667.3,), (26667.45,)))
+        self.assertTrue(merge._same_radii((-4571.82,), (-4571.83,)))
+        self.assertFalse(merge._same_radii((-4571.80,), (-4571.83,)))
+        self.assertFalse(merge._same_radii((181.28,), (181.30,)))
+        # Planes: 0 in the file, a huge radius in a table.
+        self.assertTrue(merge._same_radii((0.0,), (1e15,)))
+
+
+class SourcedTables(unittest.TestCase):
+    TEXT = TableReader.TEXT.replace("// commit 0123456789ab\nconst LENS_DATA = {\n",
+                                    '// not LensVisualizer\'s\nconst LENS_DATA = {\n  source: "US 1 Example 2, read from X",\n')
+
+    def test_a_table_that_names_its_source(self):
+        # A table of lenses/zoom-tables that LensVisualizer has not transcribed names its source instead
+        # of a commit: keyed by its own path, and cited with that source, not as LensVisualizer's.
+        self.assertIn('source: "US 1 Example 2', self.TEXT)
+        with tempfile.TemporaryDirectory() as later:
+            os.makedirs(os.path.join(later, "x"))
+            with open(os.path.join(later, "x", "X.data.ts"), "w", encoding="utf-8") as fh:
+                fh.write(self.TEXT)
+            texts = imp.lensvisualizer_texts(None, later, git=lambda *a: "")
+        self.assertEqual(texts, {"lenses/zoom-tables/x/X.data.ts": (self.TEXT, None)})
+        t = imp.lensvisualizer_table("lenses/zoom-tables/x/X.data.ts", self.TEXT)
+        self.assertEqual(t["source"], "US 1 Example 2, read from X")
+        self.assertEqual(t["focal_lengths"], [10.0, 20.0])
+        cited = imp.table_citation(t, "f" * 40, "this file")
+        self.assertIn("lenses/zoom-tables/x/X.data.ts gives them (US 1 Example 2, read from X", cited)
+        self.assertNotIn("LensVisualizer", cited)
+        lv = imp.lensvisualizer_table("src/lens-data/x/X.data.ts", TableReader.TEXT, "0123456789ab")
+        self.assertIsNone(lv["source"])
+        self.assertIn("LensVisualizer (github.com/ronbuening/LensVisualizer, src/lens-data/x/X.data.ts, commit "
+                      "0123456789ab", imp.table_citation(lv, "f" * 40, "this file"))
+
+
 class RangeCount(unittest.TestCase):
     def test_issue_28_count_does_not_fall(self):
         with open(os.path.join(ROOT, "lenses", "library", "index.json"), encoding="utf-8") as fh:

@@ -156,6 +156,13 @@ const PublishedZoom kPublished[] = {
     // / 5.80.
     {"pentax-smc-pentax-da-17-70mm-f4al-if-sdm", {17.50, 35.00, 67.89}, {4.1, 4.1, 4.1}},
     {"nikon-24-85mm-f3.6-5.8-jp-2011-221421-ex4", {24.70, 87.20}, {3.6, 5.8}},
+    // Fifth round: two tables that matched once a radius above 10 000 mm, which the file prints to six
+    // figures (54691.4, 66022.9), was compared to that precision: JP 2013-140404 Example 1 (Canon EF
+    // 70-300L: 72.2 / 135 / 290 mm at the patent's f/4.20 / 4.67 / 5.86) and WO 2020/105107 Example 1
+    // (Nikon Z DX 50-250: its two ends, 51.50 / 242.80 mm at FNO 4.63 / 6.34, the only F-numbers
+    // quoted).
+    {"canon-ef70-300mm-f4-5.6l-is-usm", {72.2, 135, 290}, {4.2, 4.67, 5.86}},
+    {"nikon-nikkor-z-dx-50-250mm-f4.5-6.3-vr", {51.50, 242.80}, {4.63, 6.34}},
 };
 
 // A table's gaps reproduce its focal lengths to the patent's own precision: the focal lengths are
@@ -208,7 +215,8 @@ TEST(ZoomMerges, EachPositionReachesThePatentsFocalLengthAndFNumber) {
 
 // How many of the library's zooms can zoom now: 18 before this work, 56 after the first merges, 84
 // once tables were matched air space by air space, 100 once the gap behind a bare STO was read and
-// the later tables were added, 102 with the patents' F-numbers for two tables whose own were a model's.
+// the later tables were added, 102 with the patents' F-numbers for two tables whose own were a model's,
+// 104 once radii above 10 000 mm were compared to the six figures the files print.
 TEST(ZoomMerges, LibraryZoomsWithPositions) {
     const LensLibrary library = LensLibrary::load({test::sourcePath("lenses/library")});
     int zooms = 0, withPositions = 0;
@@ -228,7 +236,7 @@ TEST(ZoomMerges, LibraryZoomsWithPositions) {
         const LibraryLens* entry = library.find(published.id);
         merged += entry != nullptr && entry->collection == "flaresim";
     }
-    EXPECT_EQ(merged, 66 + 17 + 2);
+    EXPECT_EQ(merged, 66 + 17 + 2 + 2);
     EXPECT_GE(withPositions, 17 + merged);
 }
 
