@@ -82,6 +82,31 @@ void printProgress(const Renderer& renderer, double fraction, double targetError
     std::fflush(stderr);
 }
 
+// The wall seconds the work after the passes takes (the starburst, reading the layers out, the EXR
+// and the other outputs), forecast from the image's size so that a pass that would leave too
+// little of --time for them is not started. Measured on the 2-core Zen 4 machine on the street
+// lights, 1536 × 1024 (docs/BENCHMARKS.md, "the beams shared by their measured variance"): the
+// stage took 1.13 s of CPU with six layers written, 1.87 s with the starburst and its layer, and
+// about 1.5 s of wall time on two idle cores with them (it runs on about 1.25 threads): per
+// megapixel, kFinishSPerMegapixelLayer for each layer written (its read-out, RGB conversion and
+// PIZ compression) and kStarburstSPerMegapixel for the diffraction (its far field over every
+// pixel), a forecast a little above that wall time, since an early end is better than a late one.
+constexpr double kFinishSPerMegapixelLayer = 0.1;
+constexpr double kStarburstSPerMegapixel = 0.4;
+// A per-ghost layer is written over its footprint as a part of its own: 281 of them took about
+// 4.6 s of CPU on the default scene (docs/BENCHMARKS.md, "per-ghost layers").
+constexpr double kFootprintLayerS = 0.02;
+double finishForecastS(const Renderer& renderer, bool diffraction) {
+    const FilmSettings& film = renderer.options().film;
+    const double megapixels = static_cast<double>(film.widthPx) * film.heightPx * 1e-6;
+    // The main image, the variance, the starburst and every film layer of the frame's size.
+    double frameLayers = 2.0 + (diffraction ? 1.0 : 0.0), footprintLayers = 0.0;
+    for (const std::string& name : renderer.layerNames())
+        (name.starts_with("ghost_") || name == kOtherGhostsLayer ? footprintLayers : frameLayers) += 1.0;
+    return megapixels * (frameLayers * kFinishSPerMegapixelLayer + (diffraction ? kStarburstSPerMegapixel : 0.0)) +
+           footprintLayers * kFootprintLayerS;
+}
+
 int run(const RenderCommandOptions& o) {
     // --time is wall time from here: loading, the analysis and the passes.
     const auto start = std::chrono::steady_clock::now();
@@ -150,6 +175,7 @@ int run(const RenderCommandOptions& o) {
     Renderer renderer(lens, scene.lights, options);
     if (processes.size() > 1) renderer.setExchange(&processes);
     if (!quiet) std::fprintf(stderr, " %.1f s\n", elapsed());
+    const double finishS = finishForecastS(renderer, scene.render.diffraction);
     // Without --checkpoint, one beside the image while the render runs (none when the image goes
     // to a device or a pipe: no folder to put it in).
     const std::string checkpoint = !writer            ? std::string()
@@ -178,10 +204,11 @@ int run(const RenderCommandOptions& o) {
     // estimate; its clock and Ctrl-C count).
     enum Next { kPass = 0, kStop = 1, kInterruptedBeforeFirstPass = 2 };
     for (;;) {
-        // A pass that would end past --time is not started (each costs about what the last did).
+        // A pass that would end past --time, with the work after the passes, is not started (each
+        // pass costs about what the last did).
         int next = kPass;
         if (writer) {
-            if (stop.reached(renderer, elapsed() + passS)) next = kStop;
+            if (stop.reached(renderer, elapsed() + passS + finishS)) next = kStop;
             else if (gInterrupted.load() && renderer.statistics().passes == 0) next = kInterruptedBeforeFirstPass;
         }
         next = processes.broadcastFromRoot(next);
