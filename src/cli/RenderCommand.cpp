@@ -85,9 +85,9 @@ void printProgress(const Renderer& renderer, double fraction, double targetError
 // The wall seconds the work after the passes takes (the starburst, reading the layers out, the EXR
 // and the other outputs), forecast from the image's size so that a pass that would leave too
 // little of --time for them is not started. Measured on the 2-core Zen 4 machine on the street
-// lights, 1536 × 1024 (docs/BENCHMARKS.md, "the beams shared by their measured variance"): the
-// stage took 1.13 s of CPU with six layers written, 1.87 s with the starburst and its layer, and
-// about 1.5 s of wall time on two idle cores with them (it runs on about 1.25 threads): per
+// lights, 1536 × 1024 (docs/BENCHMARKS.md, "Every light converges, tenth part"): the stage took
+// 1.13 s of CPU with six layers written, 1.87 s with the starburst and its layer, and about 1.5 s
+// of wall time on two idle cores with them (it runs on about 1.25 threads): per
 // megapixel, kFinishSPerMegapixelLayer for each layer written (its read-out, RGB conversion and
 // PIZ compression) and kStarburstSPerMegapixel for the diffraction (its far field over every
 // pixel), a forecast a little above that wall time, since an early end is better than a late one.
