@@ -93,18 +93,27 @@ void printProgress(const Renderer& renderer, double fraction, double targetError
 // pixel), a forecast a little above that wall time, since an early end is better than a late one.
 constexpr double kFinishSPerMegapixelLayer = 0.1;
 constexpr double kStarburstSPerMegapixel = 0.4;
-// A per-ghost layer is written over its footprint as a part of its own: 281 of them took about
-// 4.6 s of CPU on the default scene (docs/BENCHMARKS.md, "per-ghost layers").
-constexpr double kFootprintLayerS = 0.02;
+// A per-ghost layer is read out and written over its footprint, as a part of its own: its cost
+// follows the film tiles its ghost reached so far (kFootprintSPerMegapixel per megapixel of
+// them), which the forecast counts again before every pass. Measured on the same machine after
+// 2 passes: the street lights' 162 ghost layers, over 47 megapixels of tiles, took about 7.6 s of
+// wall time, the default scene's over 33 megapixels about 5.2 s (docs/BENCHMARKS.md, "Every
+// light converges, tenth part").
+constexpr double kFootprintSPerMegapixel = 0.16;
 double finishForecastS(const Renderer& renderer, bool diffraction) {
     const FilmSettings& film = renderer.options().film;
     const double megapixels = static_cast<double>(film.widthPx) * film.heightPx * 1e-6;
     // The main image, the variance, the starburst and every film layer of the frame's size.
-    double frameLayers = 2.0 + (diffraction ? 1.0 : 0.0), footprintLayers = 0.0;
-    for (const std::string& name : renderer.layerNames())
-        (name.starts_with("ghost_") || name == kOtherGhostsLayer ? footprintLayers : frameLayers) += 1.0;
+    double frameLayers = 2.0 + (diffraction ? 1.0 : 0.0), footprintMegapixels = 0.0;
+    const std::vector<std::string>& names = renderer.layerNames();
+    for (size_t l = 0; l < names.size(); ++l) {
+        if (names[l].starts_with("ghost_") || names[l] == kOtherGhostsLayer)
+            footprintMegapixels += static_cast<double>(renderer.film().layerTilePixels(static_cast<int>(l))) * 1e-6;
+        else
+            frameLayers += 1.0;
+    }
     return megapixels * (frameLayers * kFinishSPerMegapixelLayer + (diffraction ? kStarburstSPerMegapixel : 0.0)) +
-           footprintLayers * kFootprintLayerS;
+           footprintMegapixels * kFootprintSPerMegapixel;
 }
 
 int run(const RenderCommandOptions& o) {
@@ -175,7 +184,6 @@ int run(const RenderCommandOptions& o) {
     Renderer renderer(lens, scene.lights, options);
     if (processes.size() > 1) renderer.setExchange(&processes);
     if (!quiet) std::fprintf(stderr, " %.1f s\n", elapsed());
-    const double finishS = finishForecastS(renderer, scene.render.diffraction);
     // Without --checkpoint, one beside the image while the render runs (none when the image goes
     // to a device or a pipe: no folder to put it in).
     const std::string checkpoint = !writer            ? std::string()
@@ -208,6 +216,8 @@ int run(const RenderCommandOptions& o) {
         // pass costs about what the last did).
         int next = kPass;
         if (writer) {
+            // (The ghosts' layers grow as their ghosts reach more tiles: forecast again each time.)
+            const double finishS = finishForecastS(renderer, scene.render.diffraction);
             if (stop.reached(renderer, elapsed() + passS + finishS)) next = kStop;
             else if (gInterrupted.load() && renderer.statistics().passes == 0) next = kInterruptedBeforeFirstPass;
         }
@@ -255,7 +265,10 @@ int run(const RenderCommandOptions& o) {
 
     // The light's own image, diffracted: in the main image in place of the direct layer.
     std::optional<StarburstImage> starburst;
-    if (!o.quiet) std::fprintf(stderr, "render: %s...\n", scene.render.diffraction ? "diffraction and writing" : "writing");
+    if (!o.quiet)
+        std::fprintf(stderr, "render: %s (forecast %.1f s)...\n",
+                     scene.render.diffraction ? "diffraction and writing" : "writing",
+                     finishForecastS(renderer, scene.render.diffraction));
     if (scene.render.diffraction)
         starburst = sceneStarburst(scene, lens, renderer.layerXyz(kLayerDirect), options.film.widthPx,
                                    options.film.heightPx);

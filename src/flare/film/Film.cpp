@@ -542,6 +542,11 @@ std::size_t Film::layerBytes(int layer) const {
     return singleLayers_[layer] ? singleLayers_[layer]->bytes() : layers_[layer]->bytes();
 }
 
+std::size_t Film::layerTilePixels(int layer) const {
+    return singleLayers_[layer] ? singleLayers_[layer]->bytes() / (3 * sizeof(float))
+                                : layers_[layer]->bytes() / (3 * sizeof(double));
+}
+
 bool Film::hasVariance() const { return replicates_ > 0 ? passes_ >= replicates_ : passes_ >= 2; }
 
 bool Film::tileSums(const Group& group, size_t tile, const double** sums) const {

@@ -155,6 +155,8 @@ public:
     FilmWindow irradianceXyzFootprint(int layer, double photonsEmitted) const;
     // The bytes holding a layer's accumulated power: its tiles, allocated where light reached.
     std::size_t layerBytes(int layer) const;
+    // The pixels of those tiles (what reading the layer out over its footprint walks).
+    std::size_t layerTilePixels(int layer) const;
     // Per-pixel variance of a variance group's irradiance estimate (group 0: the total image;
     // linear Rec.709 RGB, (W/m²)²), from the spread between passes (or replicates). Empty before
     // two passes (before every replicate has one).

@@ -765,7 +765,11 @@ TEST(Film, FootprintIsTheBoundingBoxOfTheLitPixels) {
                 }
         // Tiles (32 × 32) touched: columns 32–63 and 64–95, rows 64–95: two tiles of 40 (256 × 160).
         EXPECT_EQ(film.layerBytes(layer), 2u * 32 * 32 * 3 * (layer == 2 ? sizeof(float) : sizeof(double)));
+        // The same two tiles in pixels, whatever the layer's precision (`flare render`'s --time
+        // forecast counts a ghost layer's read-out by them).
+        EXPECT_EQ(film.layerTilePixels(layer), 2u * 32 * 32);
     }
+    EXPECT_EQ(film.layerTilePixels(0), 0u);
     // Single precision: each pixel within the rounding of its few additions (3 passes × at most
     // 4 splats, each adding one float rounding, 2⁻²⁴ of the running sum) of the double layer's.
     const std::vector<float> exact = film.irradianceXyz(1, photons), single = film.irradianceXyz(2, photons);
