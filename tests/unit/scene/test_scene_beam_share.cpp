@@ -40,16 +40,22 @@ TEST(SceneBeamShare, PointLightsShareByTheirIrradianceAtTheLens) {
     EXPECT_EQ(beams[1], 64);
 }
 
-// Two lights a hundred to one in power: with the beams by power the preview's ghosts estimate the
-// same image as with equal beams (both unbiased: their difference within its estimated spread),
-// and, at the same total of beams, with a smaller estimated error.
-TEST(SceneBeamShare, ByPowerIsUnbiasedAndLowersTheError) {
+// The double Gauss at f/4 on a small sensor, without diffraction: the previews below are ghosts only.
+Scene smallScene() {
     Scene scene;
     scene.lens = "double-gauss-50mm";
     scene.lensState.fNumber = 4.0;
     scene.sensor.widthPx = 192;
     scene.sensor.heightPx = 128;
     scene.render.diffraction = false;
+    return scene;
+}
+
+// Two lights a hundred to one in power: with the beams by power the preview's ghosts estimate the
+// same image as with equal beams (both unbiased: their difference within its estimated spread),
+// and, at the same total of beams, with a smaller estimated error.
+TEST(SceneBeamShare, ByPowerIsUnbiasedAndLowersTheError) {
+    Scene scene = smallScene();
     LightSpec bright, dim;
     bright.name = "bright", bright.fieldXDeg = 8.0, bright.fieldYDeg = 3.0, bright.power = 100.0;
     dim.name = "dim", dim.fieldXDeg = -6.0, dim.fieldYDeg = -4.0, dim.power = 1.0;
@@ -83,12 +89,7 @@ TEST(SceneBeamShare, ByPowerIsUnbiasedAndLowersTheError) {
 // A target error continues the passes made (whole rounds) rather than starting again: the image is
 // that of a fixed count of the same passes, to the bit, and its estimated error meets the target.
 TEST(SceneBeamShare, TargetErrorContinuesThePasses) {
-    Scene scene;
-    scene.lens = "double-gauss-50mm";
-    scene.lensState.fNumber = 4.0;
-    scene.sensor.widthPx = 192;
-    scene.sensor.heightPx = 128;
-    scene.render.diffraction = false;
+    Scene scene = smallScene();
     LightSpec light;
     light.fieldXDeg = 8.0, light.fieldYDeg = 3.0;
     scene.lights = {light};
