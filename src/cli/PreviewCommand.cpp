@@ -154,7 +154,8 @@ void addPreviewCommand(CLI::App& app) {
         ->check(CLI::Range(1, 1 << 20));
     preview->add_option("--beams-per-pass", o->beamsPerPass,
                         "beams per pass and light (default: half the scene's render.beams_per_pass, so that the "
-                        "default passes cost one pass of the render; the render's own value makes the preview its first passes)")
+                        "default passes cost one pass of the render; the render's own value makes the preview the "
+                        "first passes of flare render --beam-probes 0)")
         ->check(CLI::Range(16, 65536));
     preview->add_option("--time", o->timeS,
                         "instead of --passes: as many passes as fit in this many seconds of wall time, analysis included")

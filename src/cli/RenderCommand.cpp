@@ -50,6 +50,7 @@ struct RenderCommandOptions {
     int maxBounces = -2;     // −2: the scene's
     int beamsPerPass = 0;    // 0: the scene's
     int beamReplicates = 2;
+    int beamProbes = -1;  // (unset: RenderOptions' default)
     long long seed = -1;     // −1: the scene's
     int threads = 0;
     double checkpointIntervalS = 60.0;
@@ -156,6 +157,7 @@ int run(const RenderCommandOptions& o) {
     if (o.maxBounces >= -1) overrides.maxBounces = o.maxBounces;
     if (o.beamsPerPass > 0) overrides.beamsPerPass = o.beamsPerPass;
     overrides.beamReplicates = o.beamReplicates;
+    if (o.beamProbes >= 0) overrides.beamVarianceProbes = o.beamProbes;
     overrides.perGhostLayers = o.layers.given;
     overrides.ghostLayers = o.layers.selection;
     overrides.higherOrder = o.higherOrder == "on"    ? RenderOptions::HigherOrder::On
@@ -368,6 +370,14 @@ void addRenderCommand(CLI::App& app) {
                        "independent replicates of the beams' Sobol' sequences, whose spread gives the error estimate "
                        "(default 2): more give steadier estimates and per-ghost standard errors, fewer a cleaner image")
         ->check(CLI::Range(2, kMaxReplicates));
+    render->add_option("--beam-probes", o->beamProbes,
+                       "probe beams per ghost path at independent samples, whose spread predicts its variance per "
+                       "beam: the beams of all lights are shared by it (default 4; 0: each light's own beams shared "
+                       "by one central probe's image, as before)")
+        ->check(CLI::Range(0, 64))
+        ->check([](const std::string& value) {
+            return value == "1" ? std::string("one probe has no spread: 0, or 2 to 64") : std::string();
+        });
     render->add_option("--seed", o->seed, "random seed (default: the scene's)")->check(CLI::NonNegativeNumber);
     render->add_option("--threads", o->threads, "worker threads (default: all cores)")->check(CLI::PositiveNumber);
     addLayersOption(render, o->layers,

@@ -193,22 +193,18 @@ BeamProbe probeBeamPath(const LensSystem& lens, const SpectralIndices& indices, 
     return out;
 }
 
-std::vector<double> beamRates(const LightState& light, const std::vector<double>& weight,
-                              const std::vector<double>& spectralPower, int beamsPerPass) {
-    // Rates: the budget split by weight, with two floors. A weak path drawn with a tiny rate
-    // would appear in a few passes only, each time weighted by one over that rate:
-    // heavy-tailed, and a short render that drew none would see no spread and report its
-    // part as 0 ± 0. So every path of a layer (ghosts; order-4 chains) gets one beam per
-    // pass, or, when the layer has too many paths for that, an equal share of
-    // kFloorBudgetShare of the budget; and no beam is expected to carry more than
-    // kMaxBeamShare of its layer's power (over the spectrum), a floor that sums to at most
-    // 1 / kMaxBeamShare beams per layer.
-    std::vector<double> rate(light.slots, 0.0);
-    double totalBeamWeight = 0.0;
+std::vector<double> beamRateFloors(const LightState& light, const std::vector<double>& spectralPower, int beamsPerPass) {
+    // A weak path drawn with a tiny rate would appear in a few passes only, each time weighted by
+    // one over that rate: heavy-tailed, and a short render that drew none would see no spread and
+    // report its part as 0 ± 0. So every path of a layer (ghosts; order-4 chains) gets one beam
+    // per pass, or, when the layer has too many paths for that, an equal share of
+    // kFloorBudgetShare of the budget; and no beam is expected to carry more than kMaxBeamShare
+    // of its layer's power (over the spectrum), a floor that sums to at most 1 / kMaxBeamShare
+    // beams per layer.
+    std::vector<double> floor(light.slots, 0.0);
     double layerPower[kFixedLayerCount] = {};
     int layerPaths[kFixedLayerCount] = {};
     for (int slot = 1; slot < light.slots; ++slot) {
-        totalBeamWeight += weight[slot];
         if (light.strategy[slot] != PathStrategy::Beams) continue;
         layerPower[light.layer[slot]] += spectralPower[slot];
         ++layerPaths[light.layer[slot]];
@@ -218,8 +214,20 @@ std::vector<double> beamRates(const LightState& light, const std::vector<double>
             const int layer = light.layer[slot];
             const double everyPathFloor = std::min(1.0, kFloorBudgetShare * beamsPerPass / layerPaths[layer]);
             const double shareFloor = spectralPower[slot] / (kMaxBeamShare * layerPower[layer]);
-            rate[slot] = std::max({beamsPerPass * weight[slot] / totalBeamWeight, shareFloor, everyPathFloor});
+            floor[slot] = std::max(shareFloor, everyPathFloor);
         }
+    return floor;
+}
+
+std::vector<double> beamRates(const LightState& light, const std::vector<double>& weight,
+                              const std::vector<double>& spectralPower, int beamsPerPass) {
+    // Rates: the budget split by weight, with the floors (beamRateFloors).
+    std::vector<double> rate = beamRateFloors(light, spectralPower, beamsPerPass);
+    double totalBeamWeight = 0.0;
+    for (int slot = 1; slot < light.slots; ++slot) totalBeamWeight += weight[slot];
+    for (int slot = 1; slot < light.slots; ++slot)
+        if (light.strategy[slot] == PathStrategy::Beams)
+            rate[slot] = std::max(beamsPerPass * weight[slot] / totalBeamWeight, rate[slot]);
     return rate;
 }
 

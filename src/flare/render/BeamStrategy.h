@@ -48,8 +48,15 @@ struct BeamProbe {
 BeamProbe probeBeamPath(const LensSystem& lens, const SpectralIndices& indices, const LightState& light, int slot,
                         const PathSpectrum& pathShape, const Spectrum& lightSpectrum, const RenderOptions& options);
 
+// Per slot: the least beams per pass each of the light's beam-rendered paths draws (0 for the
+// others), from their spectral powers (per slot) and the light's beams per pass: a beam per pass
+// for every path of a layer (or an equal share of a tenth of the budget), and no beam expected to
+// carry more than a twentieth of its layer's power.
+std::vector<double> beamRateFloors(const LightState& light, const std::vector<double>& spectralPower, int beamsPerPass);
+
 // Per slot: the expected beams per pass of the light's beam-rendered paths (0 for the others),
-// from their probes' weights and spectral powers (per slot).
+// from their probes' weights and spectral powers (per slot), with beamRateFloors' floors (the
+// central probe's plan: RenderOptions::beamVarianceProbes 0; BeamShare.h otherwise).
 std::vector<double> beamRates(const LightState& light, const std::vector<double>& weight,
                               const std::vector<double>& spectralPower, int beamsPerPass);
 

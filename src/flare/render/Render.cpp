@@ -13,6 +13,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "flare/render/BeamShare.h"
 #include "flare/render/BeamStrategy.h"
 #include "flare/render/PassExchange.h"
 #include "flare/render/PhotonBatches.h"
@@ -119,6 +120,8 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
       film_(options.film, kFixedLayerCount) {
     if (options.beamReplicates < 2 || options.beamReplicates > kMaxReplicates)
         throw std::invalid_argument("RenderOptions: beamReplicates must be in [2, " + std::to_string(kMaxReplicates) + "]");
+    if (options.beamVarianceProbes < 0 || options.beamVarianceProbes == 1 || options.beamVarianceProbes > 64)
+        throw std::invalid_argument("RenderOptions: beamVarianceProbes must be 0 or in [2, 64]");
     for (int l = 0; l < kFixedLayerCount; ++l) layerNames_.push_back(renderLayerName(l));
     if (options.tabulatedReflectance) tracer_.tabulateReflectance();
     if (options.strayLightSampling && options.mode != RenderOptions::Mode::Naive)
@@ -150,6 +153,7 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
         lightStates_.push_back(std::move(planned.state));
         lightPlans_.push_back(std::move(planned.plan));
     }
+    if (options.beamVarianceProbes > 0) renderer::shareBeamsByVariance(lens, options, tracer_, lightStates_);
     if (options.perGhostLayers) addGhostLayers(lightStates_, lightPlans_, options.ghostLayers, layerNames_);
     for (PathTally::Kind kind : {PathTally::Kind::Direct, PathTally::Kind::Ghost, PathTally::Kind::Higher,
                                  PathTally::Kind::Scatter}) {
@@ -184,6 +188,10 @@ Renderer::Renderer(const LensSystem& lens, const std::vector<LightSpec>& lights,
 Renderer::~Renderer() = default;
 
 const GhostReport& Renderer::ghostReport(int light) const { return lightStates_.at(static_cast<size_t>(light)).report; }
+
+double Renderer::plannedBeamRate(int light, int slot) const {
+    return lightStates_.at(static_cast<size_t>(light)).beamRate.at(static_cast<size_t>(slot));
+}
 
 void Renderer::addScatterSourceLayers() {
     // With per-path layers, the scatter layer split by what the light met first, for the sources

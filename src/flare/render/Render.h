@@ -101,15 +101,18 @@ struct RenderOptions {
     double directShare = 0.1;
     int batchPhotons = 1024;
     int batchesPerPass = 64;
-    // Beams of a pass, per light (in expectation), shared among its beam-rendered paths in
-    // proportion to √(variance per beam / cost) as a probe beam estimates them; and the
-    // correction photons traced with each beam. A path's beams continue its sequence from pass
+    // Beams of a pass, per light (in expectation; the lights' beams are shared among all their
+    // paths, beamVarianceProbes); and the correction photons traced with each beam. A path's beams continue its sequence from pass
     // to pass, so the pass size matters little to the error.
     int beamsPerPass = 1024;
     // Per light (the lights' order), in place of beamsPerPass: lights of unequal power given beams
     // by their share (`flare composite`'s regions). Each light's paths then share its own budget,
     // weighted by one over their rates as always: unbiased whatever the split. Empty: beamsPerPass.
     std::vector<int> lightBeamsPerPass;
+    // The beams of all lights are shared among their paths by each path's variance per beam over
+    // its cost, predicted from this many probe beams at independent samples (BeamVariance.h,
+    // BeamShare.h); 0: each light's own beams shared by its central probe's √(‖image‖² / cost).
+    int beamVarianceProbes = 4;
     int correctionPhotonsPerBeam = 0;
     // Independent replicates of the beams' sequences (2 to kMaxReplicates): the render's
     // error estimate, and each beam path's standard error, come from their spread. Each replicate
@@ -333,6 +336,9 @@ public:
     // A light's ghost analysis (its grid, direct path and paths, pruning as the render uses it).
     const GhostReport& ghostReport(int light) const;
     const std::vector<PathTally>& tallies() const { return tallies_; }
+    // The planned beams per pass of path `slot` (0 the direct image, then the report's ghosts) of
+    // light `light`: 0 unless beams render it; a pass draws it times the pass's beam scale.
+    double plannedBeamRate(int light, int slot) const;
     // One tally per layer kind (direct, ghost, higher, scatter), summed over lights and paths.
     const std::vector<PathTally>& layerTallies() const { return layerTallies_; }
     // The `scatter` layer split by what each path met first: housing, dust, grease, bulk

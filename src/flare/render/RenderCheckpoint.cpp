@@ -43,6 +43,9 @@ std::uint64_t Renderer::fingerprint() const {
     mix(ints, sizeof ints);
     // (Only when set, so that the checkpoints of renders keep their fingerprints.)
     if (options_.ghostGroupsOnly) mix("ghost groups only", 17);
+    // The beams' planned rates (the probes' shares: RenderOptions::beamVarianceProbes), which
+    // decide how many points of each sequence a pass draws.
+    for (const renderer::LightState& light : lightStates_) mix(light.beamRate.data(), light.beamRate.size() * sizeof(double));
     for (const renderer::PhotonComponent& c : components_) {
         mix(&c.light, sizeof c.light);
         mix(&c.slot, sizeof c.slot);

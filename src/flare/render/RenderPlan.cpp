@@ -215,6 +215,7 @@ void planStrategies(const LensSystem& lens, const Spectrum& spectrum, const Rend
         state.strategy[slot] = PathStrategy::Beams;
     });
     state.beamRate = beamRates(state, beamWeight, spectralPower, options.beamsPerPass);
+    state.beamSpectralPower = spectralPower;
     for (int slot = 1; slot < state.slots; ++slot)
         state.pathPowerFraction[slot] = spectralPower[slot] > 0.0 ? spectralPower[slot] : report.ghosts[slot - 1].powerFraction;
 }
@@ -228,7 +229,7 @@ PlannedLight planLight(const LensSystem& lens, const LightSpec& spec, const Rend
     // light for a point or disk (its centre), so that masks and beams see its live regions.
     GhostReport analysed = analyseGhosts(lens, sampler.grid(), options.analysis);
     PlannedLight planned{LightState{std::move(sampler), WavelengthSampler(spectrum), std::move(analysed),
-                                    {}, {}, {}, {}, {}, {}, {}, {}, {}, 0, 0},
+                                    {}, {}, {}, {}, {}, {}, {}, {}, {}, 0, 0, {}, 0},
                          LightPlan{}};
     LightState& state = planned.state;
     LightPlan& plan = planned.plan;
@@ -269,6 +270,8 @@ PlannedLight planLight(const LensSystem& lens, const LightSpec& spec, const Rend
         if (report.ghosts[slot - 1].path.reflections.size() > 2) state.layer[slot] = kLayerHigher;
     state.beamWavelengths.resize(state.slots);
     state.beamRate.assign(state.slots, 0.0);
+    state.beamSpectralPower.assign(state.slots, 0.0);
+    state.beamsPerPass = options.beamsPerPass;
     state.pathPowerFraction.assign(state.slots, 0.0);
     for (int slot = 1; slot < state.slots; ++slot) state.pathPowerFraction[slot] = report.ghosts[slot - 1].powerFraction;
     if (options.mode != RenderOptions::Mode::Naive && !plan.skipped) {

@@ -48,6 +48,11 @@ struct LightState {
     std::vector<double> pathPowerFraction;
     int tallyOffset = 0;                    // tallies: offset + slot, then higher, then scatter
     int slots = 0;
+    // Per slot: the path's power fraction over the light's spectrum as its beam probe found it
+    // (0 where none ran), which the rates' floors follow; and the light's beams per pass (its
+    // share of the budget the paths of all lights share, BeamShare.h).
+    std::vector<double> beamSpectralPower;
+    int beamsPerPass = 0;
 
     int higherTally() const { return tallyOffset + slots; }
     int scatterTally() const { return tallyOffset + slots + 1; }

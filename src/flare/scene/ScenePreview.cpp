@@ -71,6 +71,9 @@ ScenePreview previewScene(const Scene& scene, const LensSystem& lens, bool perGh
     RenderOptions options = sceneRenderOptions(scene, lens, overrides);
     options.tracePhotons = false;
     options.ghostGroupsOnly = true;  // (the preview reads the layers and the ghost group's estimate)
+    // Each light's beams shared by its paths' central probes: the render's probes by sampled beams
+    // (BeamVariance.h) cost about half the preview's second again on the default scene.
+    options.beamVarianceProbes = 0;
     options.beamsPerPass = budget.beamsPerPass > 0 ? budget.beamsPerPass : std::max(16, options.beamsPerPass / 2);
     if (scene.render.beamsByPower) options.lightBeamsPerPass = lightBeamsByPower(scene.lights, options.beamsPerPass);
     Renderer renderer(lens, scene.lights, options);

@@ -22,6 +22,7 @@ RenderOptions sceneRenderOptions(const Scene& scene, const LensSystem& lens, con
     if (options.mode == RenderOptions::Mode::Guided) options.batchesPerPass = kGuidedBatchesPerPass;
     options.ghostRinging = scene.render.ghostRinging;
     options.beamReplicates = overrides.beamReplicates;
+    if (overrides.beamVarianceProbes) options.beamVarianceProbes = *overrides.beamVarianceProbes;
     options.perGhostLayers = overrides.perGhostLayers;
     options.ghostLayers = overrides.ghostLayers;
     // The ghosts are the order-2 paths; a scene's ghost_order 4 asks for the order-4 chains to be

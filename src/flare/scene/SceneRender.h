@@ -24,6 +24,7 @@ struct SceneRenderOverrides {
     std::optional<int> maxBounces;  // −1: unbounded
     std::optional<int> beamsPerPass;
     int beamReplicates = 2;         // RenderOptions::beamReplicates
+    std::optional<int> beamVarianceProbes;  // RenderOptions::beamVarianceProbes (unset: its default)
     bool perGhostLayers = false;
     LayerSelection ghostLayers;  // with perGhostLayers: which ghosts keep a layer (RenderOptions)
     // Auto guides the order-4 chains when the scene's ghost_order is 4, else leaves the choice to

@@ -46,7 +46,8 @@ double relativeL2(const std::vector<float>& a, const std::vector<float>& referen
 TEST(ScenePreview, GhostLayerIsTheRendersBeams) {
     const Scene scene = doubletSunScene(0.53);
     const LensSystem lens = buildSceneLens(scene);
-    const RenderOptions withPhotons = sceneRenderOptions(scene, lens, {});
+    RenderOptions withPhotons = sceneRenderOptions(scene, lens, {});
+    withPhotons.beamVarianceProbes = 0;  // the preview's shares: each light's central probes (ScenePreview.cpp)
     RenderOptions beamsOnly = withPhotons;
     beamsOnly.tracePhotons = false;
     Renderer full(lens, scene.lights, withPhotons), beams(lens, scene.lights, beamsOnly);
