@@ -31,10 +31,16 @@ namespace flare::renderer {
 // std::invalid_argument on sizes that differ or a negative or non-finite strength, floor or budget.
 std::vector<double> waterFillRates(const std::vector<double>& strength, const std::vector<double>& floor, double budget);
 
-// Sets the beam rates of every beam-rendered path of `lights` (LightState::beamRate) from
-// `options.beamVarianceProbes` probes of each (BeamVariance.h): waterFillRates over all of them,
-// with each light's floors (BeamStrategy.h's beamRateFloors) and the lights' beams per pass
-// added up as the budget. The probes run in parallel; the rates do not depend on the threads.
+// Sets the beam rates of every beam-rendered path of `lights` (LightState::beamRate, on entry the
+// central probe's shares, BeamStrategy.h) from `options.beamVarianceProbes` probes of each
+// (BeamVariance.h): waterFillRates over all of them, with each light's floors (beamRateFloors) and
+// the lights' beams per pass added up as the budget, gives each light its beams; within a light,
+// each path gets the larger of that rate and the central probe's scaled to the light's beams, all
+// scaled back to them (at least half of what either predictor asks: the sampled probes count the
+// colour of single-wavelength beams, which the sequences' stratified wavelengths integrate far
+// faster than 1 / n; the central probe misses a disk light's moving, focused ghosts). With fewer
+// than two lights with beams, nothing changes. The probes run in parallel; the rates do not depend
+// on the threads.
 void shareBeamsByVariance(const LensSystem& lens, const RenderOptions& options, const PhotonTracer& tracer,
                           std::vector<LightState>& lights);
 

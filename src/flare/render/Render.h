@@ -109,9 +109,11 @@ struct RenderOptions {
     // by their share (`flare composite`'s regions). Each light's paths then share its own budget,
     // weighted by one over their rates as always: unbiased whatever the split. Empty: beamsPerPass.
     std::vector<int> lightBeamsPerPass;
-    // The beams of all lights are shared among their paths by each path's variance per beam over
-    // its cost, predicted from this many probe beams at independent samples (BeamVariance.h,
-    // BeamShare.h); 0: each light's own beams shared by its central probe's √(‖image‖² / cost).
+    // With two lights or more, the beams of all lights are shared among their paths by each
+    // path's variance per beam over its cost, predicted from this many probe beams at independent
+    // samples, mixed within each light with the central probe's shares (BeamVariance.h,
+    // BeamShare.h); 0, or a single light: each light's own beams shared by its central probe's
+    // √(‖image‖² / cost).
     int beamVarianceProbes = 4;
     int correctionPhotonsPerBeam = 0;
     // Independent replicates of the beams' sequences (2 to kMaxReplicates): the render's
