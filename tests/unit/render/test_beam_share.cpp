@@ -7,9 +7,11 @@
 #include <numbers>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include "RenderTestUtil.h"
 #include "TestUtil.h"
@@ -213,13 +215,9 @@ std::vector<PathPower> beamPowers(const Renderer& r, int passes, int replicates)
     return out;
 }
 
-// A sun and a disk light through the uncoated doublet, beams only: each path's power with the
-// shares by predicted variance against the central probe's shares, a t-test per path
-// (Bonferroni). The new shares must differ (else the test shows nothing), and the same estimates
-// with each beam weighted by one over the other plan's rate (a weight that ignores its rate) fail.
-TEST(BeamShare, PathPowersWithTheVarianceSharesAgreeWithTheCentralProbesShares) {
+Scene twoLightScene() {
     const std::string lens = test::writeUncoatedDoublet("flare_beam_share_test");
-    const Scene scene = parseSceneText(R"({
+    return parseSceneText(R"({
   "lens": ")" + lens + R"(",
   "sensor": { "resolution": [240, 160] },
   "lights": [
@@ -228,7 +226,35 @@ TEST(BeamShare, PathPowersWithTheVarianceSharesAgreeWithTheCentralProbesShares) 
   ],
   "render": { "diffraction": false, "beams_per_pass": 96, "seed": 5 }
 })",
-                                       "share.json", "");
+                          "share.json", "");
+}
+
+// The probes, their shares and the beams they plan are the same bits with one thread as with two.
+TEST(BeamShare, SharesAndImageDoNotDependOnTheThreads) {
+    const Scene scene = twoLightScene();
+    const LensSystem doublet = buildSceneLens(scene);
+    RenderOptions options = sceneRenderOptions(scene, doublet, {});
+    options.tracePhotons = false;
+    auto render = [&](int threads) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        Renderer r(doublet, scene.lights, options);
+        r.runPass();
+        std::vector<double> rates;
+        for (int l = 0; l < 2; ++l)
+            for (int slot = 0; slot <= static_cast<int>(r.ghostReport(l).ghosts.size()); ++slot) rates.push_back(r.plannedBeamRate(l, slot));
+        return std::make_pair(rates, r.layerXyz(kLayerGhost));
+    };
+    const auto one = render(1), two = render(2);
+    EXPECT_EQ(one.first, two.first);
+    EXPECT_EQ(one.second, two.second);
+}
+
+// A sun and a disk light through the uncoated doublet, beams only: each path's power with the
+// shares by predicted variance against the central probe's shares, a t-test per path
+// (Bonferroni). The new shares must differ (else the test shows nothing), and the same estimates
+// with each beam weighted by one over the other plan's rate (a weight that ignores its rate) fail.
+TEST(BeamShare, PathPowersWithTheVarianceSharesAgreeWithTheCentralProbesShares) {
+    const Scene scene = twoLightScene();
     const LensSystem doublet = buildSceneLens(scene);
     constexpr int kReplicates = 8, kPasses = 16;
     SceneRenderOverrides overrides;

@@ -84,6 +84,11 @@ Ghosts renderGhosts(const Scene& scene, int passes, int beamsPerPass) {
     RenderOptions options = sceneRenderOptions(scene, lens, {});
     options.tracePhotons = false;
     options.beamsPerPass = beamsPerPass;
+    // Each light's beams shared by its own central probes, as the region (one light) shares its
+    // own: the comparison is of the region's sampling, not of how beams move between lights
+    // (BeamShare.h; with two replicates a path's standard error has one degree of freedom, and the
+    // four points' paths at other rates drew a 4.4σ difference on ghost_11_07).
+    options.beamVarianceProbes = 0;
     Renderer renderer(lens, scene.lights, options);
     for (int pass = 0; pass < passes; ++pass) renderer.runPass();
     Ghosts out;
