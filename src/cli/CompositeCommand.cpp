@@ -28,6 +28,8 @@
 #include "flare/scene/ScenePreview.h"
 #include "flare/scene/SceneStarburst.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <tbb/task_group.h>
 
 namespace flare::cli {
@@ -78,19 +80,25 @@ struct CompositeOptions {
 using Clock = std::chrono::steady_clock;
 double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
-// A layer in the plate's space from interleaved XYZ.
+// A layer in the plate's space from interleaved XYZ (pixel by pixel: the same bits on any
+// number of threads).
 ImageLayer plateLayer(const std::string& name, const std::vector<float>& xyz, int w, int h, const PlateColourSpace& space) {
     ImageLayer layer{name, w, h, std::vector<float>(xyz.size())};
-    for (size_t i = 0; i < xyz.size(); i += 3) {
-        const glm::dvec3 rgb = space.fromXyz * glm::dvec3(xyz[i], xyz[i + 1], xyz[i + 2]);
-        for (int k = 0; k < 3; ++k) layer.rgb[i + k] = static_cast<float>(rgb[k]);
-    }
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, xyz.size() / 3, 1 << 14), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t p = r.begin(); p < r.end(); ++p) {
+            const size_t i = 3 * p;
+            const glm::dvec3 rgb = space.fromXyz * glm::dvec3(xyz[i], xyz[i + 1], xyz[i + 2]);
+            for (int k = 0; k < 3; ++k) layer.rgb[i + k] = static_cast<float>(rgb[k]);
+        }
+    });
     return layer;
 }
 
 void addInto(std::vector<float>& into, const std::vector<float>& from, float sign = 1.0f) {
     if (from.empty()) return;
-    for (size_t i = 0; i < into.size(); ++i) into[i] += sign * from[i];
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, into.size(), 1 << 16), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i < r.end(); ++i) into[i] += sign * from[i];
+    });
 }
 
 // Renders `scene`'s preview with the budget: --passes, --time, or --target-error (the passes
@@ -340,7 +348,7 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
     std::vector<ImageLayer> layers;
     ImageLayer flare = plateLayer("flare", flareXyz, w, h, plate.space);
     ImageLayer composite{"", w, h, plate.rgb};
-    for (size_t i = 0; i < n; ++i) composite.rgb[i] += flare.rgb[i];
+    addInto(composite.rgb, flare.rgb);
     layers.push_back(composite);
     layers.push_back(ImageLayer{"plate", w, h, plate.rgb});
     layers.push_back(std::move(flare));
