@@ -113,11 +113,18 @@ DiffractionPsf::DiffractionPsf(const ApertureTransform& aperture, std::vector<Sp
     tableHalf_ = static_cast<int>(std::ceil(coherentK_ / tableStep_)) + 3;
     const int side = 2 * tableHalf_ + 1;
     table_.assign(static_cast<size_t>(side) * side, 0.0);
-    tbb::parallel_for(0, side, [&](int row) {
+    // The pupil function is real, so F(−k) = F̄(k): the rows up to the centre's are transformed
+    // and the rest conjugated through the centre. (ApertureTransform::transform gives exactly
+    // that, bit for bit: each edge's term at −k is the negated conjugate of its term at k.)
+    tbb::parallel_for(0, tableHalf_ + 1, [&](int row) {
         for (int col = 0; col < side; ++col)
             table_[static_cast<size_t>(row) * side + col] =
                 aperture.transform({(col - tableHalf_) * tableStep_, (row - tableHalf_) * tableStep_});
     });
+    for (int row = tableHalf_ + 1; row < side; ++row)
+        for (int col = 0; col < side; ++col)
+            table_[static_cast<size_t>(row) * side + col] =
+                std::conj(table_[static_cast<size_t>(side - 1 - row) * side + (side - 1 - col)]);
 
     // The asymptote is smooth in λ (no fringes): a quarter of the wavelengths, each band merged
     // into one sample at its weighted mean wavelength, carries it.

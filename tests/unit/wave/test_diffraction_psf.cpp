@@ -402,3 +402,18 @@ TEST(DiffractionPsf, IsPointSymmetricSoTheWindowMirrorsHalfItsCells) {
             }
     }
 }
+
+// The exact core's table holds F on half its grid, the rest conjugated: F(−k) = F̄(k) for a real
+// pupil, and ApertureTransform::transform gives exactly that (each edge's term at −k is the
+// negated conjugate of its term at k), so the mirrored table is the computed one bit for bit.
+TEST(ApertureTransform, TransformAtMinusKIsTheConjugateBitForBit) {
+    std::vector<glm::dvec2> cut;
+    for (const glm::dvec2& p : circleOutline(1.6, 720)) cut.push_back({std::min(p.x, 0.9), p.y + 0.1 * p.x});
+    const ApertureTransform aperture(cut);
+    for (int i = 0; i < 200; ++i) {
+        const glm::dvec2 k{std::cos(0.37 * i) * (0.1 + 0.3 * i), std::sin(0.53 * i) * (0.2 + 0.25 * i)};
+        const std::complex<double> a = aperture.transform(k), b = aperture.transform(-k);
+        EXPECT_EQ(a.real(), b.real()) << i;
+        EXPECT_EQ(a.imag(), -b.imag()) << i;
+    }
+}
