@@ -473,17 +473,19 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
         const int outSide = kernelSide + cropSide - 1;
         std::vector<double> inFrameRows(height, 0.0);
         stage = Clock::now();
+        // The window's taper, the same for the three channels.
+        std::vector<double> nearTaper(static_cast<size_t>(kernelSide) * kernelSide);
+        tbb::parallel_for(0, kernelSide, [&](int y) {
+            for (int x = 0; x < kernelSide; ++x)
+                nearTaper[static_cast<size_t>(y) * kernelSide + x] =
+                    1.0 - smoothstep((std::hypot(x - window, y - window) - taperStart) / taperWidth);
+        });
         tbb::parallel_for(0, 3, [&](int c) {
             // (A plan per channel: KissFFT's plan holds its scratch buffer.)
             const FftPlan plan(KissFft2d::nextFastSize(outSide), KissFft2d::nextFastSize(outSide));
             std::vector<float> kernel(static_cast<size_t>(kernelSide) * kernelSide);
-            for (int y = 0; y < kernelSide; ++y)
-                for (int x = 0; x < kernelSide; ++x) {
-                    const double r = std::hypot(x - window, y - window);
-                    kernel[static_cast<size_t>(y) * kernelSide + x] =
-                        static_cast<float>(kernelXyz[3 * (static_cast<size_t>(y) * kernelSide + x) + c] *
-                                           (1.0 - smoothstep((r - taperStart) / taperWidth)));
-                }
+            for (size_t i = 0; i < kernel.size(); ++i)
+                kernel[i] = static_cast<float>(kernelXyz[3 * i + c] * nearTaper[i]);
             const std::vector<float> near = convolve(plan, crop[c], cropSide, kernel, kernelSide);
             for (int y = 0; y < outSide; ++y)
                 for (int x = 0; x < outSide; ++x) {
