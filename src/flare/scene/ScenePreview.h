@@ -44,7 +44,8 @@ struct PreviewBudget {
     // > 0: after `passes`, the passes continue (whole rounds, one pass per replicate) until the
     // ghosts' estimated relative error is at most this, the passes already made kept (at most
     // maxPasses). Each round's length is forecast from the error falling as one over the square
-    // root of the passes.
+    // root of the passes (× 1.1); a forecast more than twice the passes made goes halfway, where
+    // the error is estimated and the passes forecast again.
     double targetError = 0.0;
     int maxPasses = 1 << 16;
     std::optional<std::uint64_t> seed;  // default: the scene's render.seed

@@ -113,11 +113,18 @@ DiffractionPsf::DiffractionPsf(const ApertureTransform& aperture, std::vector<Sp
     tableHalf_ = static_cast<int>(std::ceil(coherentK_ / tableStep_)) + 3;
     const int side = 2 * tableHalf_ + 1;
     table_.assign(static_cast<size_t>(side) * side, 0.0);
-    tbb::parallel_for(0, side, [&](int row) {
+    // The pupil function is real, so F(−k) = F̄(k): the rows up to the centre's are transformed
+    // and the rest conjugated through the centre. (ApertureTransform::transform gives exactly
+    // that, bit for bit: each edge's term at −k is the negated conjugate of its term at k.)
+    tbb::parallel_for(0, tableHalf_ + 1, [&](int row) {
         for (int col = 0; col < side; ++col)
             table_[static_cast<size_t>(row) * side + col] =
                 aperture.transform({(col - tableHalf_) * tableStep_, (row - tableHalf_) * tableStep_});
     });
+    for (int row = tableHalf_ + 1; row < side; ++row)
+        for (int col = 0; col < side; ++col)
+            table_[static_cast<size_t>(row) * side + col] =
+                std::conj(table_[static_cast<size_t>(side - 1 - row) * side + (side - 1 - col)]);
 
     // The asymptote is smooth in λ (no fringes): a quarter of the wavelengths, each band merged
     // into one sample at its weighted mean wavelength, carries it.
@@ -379,10 +386,18 @@ double DiffractionPsf::outsideWindowEnergy(int halfPx, int channel) const {
 std::vector<float> DiffractionPsf::window(int halfPx) {
     const int side = 2 * halfPx + 1;
     std::vector<glm::dvec3> cells(static_cast<size_t>(side) * side);
-    tbb::parallel_for(0, side, [&](int row) {
+    // The PSF is point-symmetric: the pupil function is real, so F(−k) is F(k)'s conjugate and
+    // |F|² the same, and every term of the asymptote (each spike's sinc² about its line, the
+    // corners' products of ratios even in α, the halo's ρ(β) + ρ(β + π)) is even in α; the linear
+    // map to pixels keeps that. The rows up to the centre's are evaluated, the rest mirrored
+    // through the centre (half the work; the two halves agree to rounding, tested).
+    tbb::parallel_for(0, halfPx + 1, [&](int row) {
         for (int col = 0; col < side; ++col)
             cells[static_cast<size_t>(row) * side + col] = cellEnergy({col - halfPx, row - halfPx}, 0.5);
     });
+    for (int row = halfPx + 1; row < side; ++row)
+        for (int col = 0; col < side; ++col)
+            cells[static_cast<size_t>(row) * side + col] = cells[static_cast<size_t>(side - 1 - row) * side + (side - 1 - col)];
     if (normalisation_ == glm::dvec3(0.0)) {
         glm::dvec3 total{0.0};
         for (const glm::dvec3& c : cells) total += c;

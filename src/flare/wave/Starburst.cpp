@@ -201,62 +201,50 @@ void addFarField(const DiffractionPsf& psf, const ApertureTransform& aperture, c
         tailScale[s] = spikes[s].lineDensity * cropEnergy * spikes[s].transverseWidthPx / (2.0 * kPi * kPi);
     tbb::parallel_for(0, height, [&](int y) {
         const size_t row = static_cast<size_t>(y) * width;
-        // Per pixel of the row: the taper's weight, 1/r⁴ and the sum; each spike is added over
-        // the whole row (its cheap far tail first, the pixels near its line after).
-        std::vector<double> taper(width), inverseR4(width);
-        std::vector<glm::dvec3> value(width, glm::dvec3(0.0));
-        std::vector<int> nearLine;
+        const double dy = y + 0.5 - cropCentre.y;
+        // Pixel by pixel, every spike's share in the spikes' order, then the halo and the corners,
+        // summed in registers (each pixel's additions in a fixed order: deterministic).
+        double rowY = 0.0;
         for (int x = 0; x < width; ++x) {
             const glm::dvec2 offset = glm::dvec2(x + 0.5, y + 0.5) - cropCentre;
             const double r2 = glm::dot(offset, offset);
+            double taper = 0.0;
             if (tapers.size() == 1) {
-                taper[x] = smoothstep((std::sqrt(r2) - tapers[0].startPx) / tapers[0].widthPx);
+                taper = smoothstep((std::sqrt(r2) - tapers[0].startPx) / tapers[0].widthPx);
             } else {  // the cluster's lights' tapers, each about its own crop, by their energy
-                taper[x] = 0.0;
                 for (const FarTaper& t : tapers)
-                    taper[x] += t.weight * smoothstep((glm::length(glm::dvec2(x + 0.5, y + 0.5) - t.centrePx) - t.startPx) /
-                                                      t.widthPx);
+                    taper += t.weight * smoothstep((glm::length(glm::dvec2(x + 0.5, y + 0.5) - t.centrePx) - t.startPx) /
+                                                   t.widthPx);
             }
-            inverseR4[x] = taper[x] > 0.0 ? 1.0 / (r2 * r2) : 0.0;
-        }
-        const double dy = y + 0.5 - cropCentre.y;
-        for (size_t s = 0; s < spikes.size(); ++s) {
-            const DiffractionPsf::Spike& spike = spikes[s];
-            const double fanWidth = spike.fanToRad - spike.fanFromRad;
-            nearLine.clear();
-            for (int x = 0; x < width; ++x) {
-                if (!(taper[x] > 0.0)) continue;
-                const double dx = x + 0.5 - cropCentre.x;
+            if (!(taper > 0.0)) continue;
+            const double inverseR4 = 1.0 / (r2 * r2);
+            const double dx = x + 0.5 - cropCentre.x;
+            glm::dvec3 value(0.0);
+            for (size_t s = 0; s < spikes.size(); ++s) {
+                const DiffractionPsf::Spike& spike = spikes[s];
+                const double fanWidth = spike.fanToRad - spike.fanFromRad;
                 // The envelope (k·n)²/|k|⁴: 1/r² along the line, falling to 0 across it.
                 const double along = dx * spike.directionPx.x + dy * spike.directionPx.y;
                 const double t = dx * spike.transversePx.x + dy * spike.transversePx.y;
                 const double tA = t - along * spike.fanFromRad, tB = t - along * spike.fanToRad;
                 const double nearest = std::min(std::abs(tA), std::abs(tB)) - 0.5;
+                const bool beyondBand = std::min(tA, tB) > bands[s].y || std::max(tA, tB) < bands[s].x;
                 // Wholly beyond the band and four widths (most of the frame), a narrow fan: the
                 // averaged tail's mean over it by fannedTailShape's midpoint rule.
-                if ((std::min(tA, tB) > bands[s].y || std::max(tA, tB) < bands[s].x) &&
-                    nearest > kAveragedTailWidths * widest[s] && std::abs(along * fanWidth) < 0.2 * nearest) {
+                if (beyondBand && nearest > kAveragedTailWidths * widest[s] && std::abs(along * fanWidth) < 0.2 * nearest) {
                     const double mid = 0.5 * (tA + tB), y2 = mid * mid, inverse = 1.0 / (y2 - 0.25);
                     const double spread2 = along * along * fanWidth * fanWidth;
                     const double shape = inverse + (6.0 * y2 + 0.5) * inverse * inverse * inverse * spread2 / 24.0;
-                    value[x] += tailScale[s] * (along * along * inverseR4[x] * shape);
-                } else {
-                    nearLine.push_back(x);
+                    value += tailScale[s] * (along * along * inverseR4 * shape);
+                    continue;
                 }
-            }
-            for (const int x : nearLine) {
-                const double dx = x + 0.5 - cropCentre.x;
-                const double along = dx * spike.directionPx.x + dy * spike.directionPx.y;
-                const double t = dx * spike.transversePx.x + dy * spike.transversePx.y;
-                const double envelope = along * along * inverseR4[x];
-                const double tA = t - along * spike.fanFromRad, tB = t - along * spike.fanToRad;
+                const double envelope = along * along * inverseR4;
                 // Wholly beyond the band: the averaged tail's mean over a wide fan (closed form);
                 // wholly inside it: the profile's; across the band's edge, the fan in pieces of
                 // at most 4 px of transverse offset, each from the profile where it lies in the
                 // band, else from the point tail.
-                if ((std::min(tA, tB) > bands[s].y || std::max(tA, tB) < bands[s].x) &&
-                    std::min(std::abs(tA), std::abs(tB)) - 0.5 > kAveragedTailWidths * widest[s]) {
-                    value[x] += tailScale[s] * (envelope * fannedTailShape(tA, tB));
+                if (beyondBand && std::min(std::abs(tA), std::abs(tB)) - 0.5 > kAveragedTailWidths * widest[s]) {
+                    value += tailScale[s] * (envelope * fannedTailShape(tA, tB));
                     continue;
                 }
                 const int pieces = std::clamp(static_cast<int>(std::ceil(std::abs(along * fanWidth) / 4.0)), 1, 16);
@@ -264,8 +252,7 @@ void addFarField(const DiffractionPsf& psf, const ApertureTransform& aperture, c
                 for (int c = 0; c < 3; ++c) {
                     const TransverseProfile& profile = profiles[s][c];
                     if (std::min(tA, tB) > profile.bandLo() && std::max(tA, tB) < profile.bandHi()) {
-                        value[x][c] += spike.lineDensity[c] * envelope *
-                                       profile.fanned(t, along, spike.fanFromRad, spike.fanToRad);
+                        value[c] += spike.lineDensity[c] * envelope * profile.fanned(t, along, spike.fanFromRad, spike.fanToRad);
                         continue;
                     }
                     double share = 0.0;
@@ -276,17 +263,12 @@ void addFarField(const DiffractionPsf& psf, const ApertureTransform& aperture, c
                                      ? profile.fanned(t, along, from, to)
                                      : cropEnergy[c] * pixelTail(centre, spike.transverseWidthPx[c]);
                     }
-                    value[x][c] += spike.lineDensity[c] * envelope * share / pieces;
+                    value[c] += spike.lineDensity[c] * envelope * share / pieces;
                 }
             }
-        }
-        double rowY = 0.0;
-        for (int x = 0; x < width; ++x) {
-            if (!(taper[x] > 0.0)) continue;
-            const glm::dvec2 offset = glm::dvec2(x + 0.5, y + 0.5) - cropCentre;
-            if (halo) value[x] += psf.smoothPerPixel(offset) * cropEnergy;
-            if (corners) value[x] += psf.cornerPerPixel(offset) * cropEnergy;
-            const glm::dvec3 v = taper[x] * value[x];
+            if (halo) value += psf.smoothPerPixel(offset) * cropEnergy;
+            if (corners) value += psf.cornerPerPixel(offset) * cropEnergy;
+            const glm::dvec3 v = taper * value;
             for (int c = 0; c < 3; ++c) xyz[3 * (row + x) + c] += static_cast<float>(v[c]);
             rowY += v.y;
         }
@@ -301,6 +283,9 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
                                const std::vector<StarburstDust>& dust) {
     StarburstImage result;
     result.xyz = directXyz;
+    using Clock = std::chrono::steady_clock;
+    auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
+    Clock::time_point stage = Clock::now();
     const size_t pixels = static_cast<size_t>(width) * height;
 
     PupilOutlineOptions outlineOptions;
@@ -361,6 +346,8 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
             sum += byRing[++k.radius];
     }
 
+    result.stages.outlines = since(stage);
+    stage = Clock::now();
     // The PSFs: one per light, or with psfGroupTolerance one per group of lights whose pupils
     // agree (PsfGroups.h), the founder's, its window evaluated once at the largest its lights need.
     // A degenerate pupil or map (a light at the edge of a fisheye's field) leaves the group's
@@ -407,6 +394,7 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
         if (group.window > 0) group.kernelXyz = group.psf->window(group.window);
     }
 
+    result.stages.psfs = since(stage);
     // With clusterFarFields, each light's crop for its cluster's far field.
     struct FarSource {
         bool used = false;
@@ -484,17 +472,20 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
         // writes its own channel; the row sums are the Y channel's).
         const int outSide = kernelSide + cropSide - 1;
         std::vector<double> inFrameRows(height, 0.0);
+        stage = Clock::now();
+        // The window's taper, the same for the three channels.
+        std::vector<double> nearTaper(static_cast<size_t>(kernelSide) * kernelSide);
+        tbb::parallel_for(0, kernelSide, [&](int y) {
+            for (int x = 0; x < kernelSide; ++x)
+                nearTaper[static_cast<size_t>(y) * kernelSide + x] =
+                    1.0 - smoothstep((std::hypot(x - window, y - window) - taperStart) / taperWidth);
+        });
         tbb::parallel_for(0, 3, [&](int c) {
             // (A plan per channel: KissFFT's plan holds its scratch buffer.)
             const FftPlan plan(KissFft2d::nextFastSize(outSide), KissFft2d::nextFastSize(outSide));
             std::vector<float> kernel(static_cast<size_t>(kernelSide) * kernelSide);
-            for (int y = 0; y < kernelSide; ++y)
-                for (int x = 0; x < kernelSide; ++x) {
-                    const double r = std::hypot(x - window, y - window);
-                    kernel[static_cast<size_t>(y) * kernelSide + x] =
-                        static_cast<float>(kernelXyz[3 * (static_cast<size_t>(y) * kernelSide + x) + c] *
-                                           (1.0 - smoothstep((r - taperStart) / taperWidth)));
-                }
+            for (size_t i = 0; i < kernel.size(); ++i)
+                kernel[i] = static_cast<float>(kernelXyz[3 * i + c] * nearTaper[i]);
             const std::vector<float> near = convolve(plan, crop[c], cropSide, kernel, kernelSide);
             for (int y = 0; y < outSide; ++y)
                 for (int x = 0; x < outSide; ++x) {
@@ -506,6 +497,8 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
                 }
         });
 
+        result.stages.near += since(stage);
+        stage = Clock::now();
         // Far: the spikes' envelopes times the crop's transverse profiles, and the halo; now, or
         // with the light's cluster (clusterFarFields) once every light's near part is in.
         if (options.clusterFarFields > 0.0) {
@@ -520,6 +513,7 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
         } else {
             addFarField(psf, aperture, cropPoints, cropEnergies, cropEnergy, cropCentre,
                         {FarTaper{cropCentre, taperStart, taperWidth, 1.0}}, width, height, result.xyz, inFrameRows);
+            ++result.farFields;
             double inFrame = 0.0;
             for (double r : inFrameRows) inFrame += r;
             report.outsideFrameShare = std::max(0.0, 1.0 - inFrame / cropEnergy.y);
@@ -550,6 +544,7 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
             report.dustGlowInFrameShare += glowInFrame / cropEnergy.y;
         }
         if (report.dustGlowShare > 0.0) report.dustGlowInFrameShare /= report.dustGlowShare;
+        result.stages.far += since(stage);
         report.diffracted = true;
         report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     }
@@ -563,6 +558,7 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
     // Each member keeps its own taper, weighted by its share of the cluster's energy, so the near
     // and far parts still partition every light's PSF.
     if (options.clusterFarFields > 0.0) {
+        stage = Clock::now();
         struct Cluster {
             int group = 0;
             std::vector<size_t> members;
@@ -606,6 +602,7 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
             std::vector<double> inFrameRows(height, 0.0);
             addFarField(*group.psf, *group.aperture, points, energies, energy, c.centroid, tapers, width, height, result.xyz,
                         inFrameRows);
+            ++result.farFields;
             double farInFrame = 0.0;
             for (double r : inFrameRows) farInFrame += r;
             for (size_t m : c.members) {
@@ -615,6 +612,7 @@ StarburstImage renderStarburst(const LensSystem& lens, const std::vector<float>&
                 result.lights[m].farCluster = static_cast<int>(c.members.front());
             }
         }
+        result.stages.far += since(stage);
     }
     return result;
 }

@@ -93,9 +93,19 @@ struct StarburstLightReport {
     double seconds = 0.0;
 };
 
+// Where a starburst's wall time went, by stage (seconds).
+struct StarburstStages {
+    double outlines = 0.0;  // the lights' pupils traced, the direct image's pixels given to lights
+    double psfs = 0.0;      // the PSFs: groups, exact transforms, near windows
+    double near = 0.0;      // the crops convolved with their near windows (FFT)
+    double far = 0.0;       // the far fields over the frame (and dust)
+};
+
 struct StarburstImage {
     std::vector<float> xyz;          // the starburst layer (W/m², XYZ), as the direct layer
     std::vector<StarburstLightReport> lights;
+    StarburstStages stages;
+    int farFields = 0;               // far fields evaluated over the frame
 };
 
 // `directXyz`: the direct layer (widthPx × heightPx × XYZ, camera orientation, as the preview and

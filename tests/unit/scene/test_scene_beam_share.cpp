@@ -113,5 +113,49 @@ TEST(SceneBeamShare, TargetErrorContinuesThePasses) {
     EXPECT_EQ(previewScene(scene, lens, false, budget).passes, 2);
 }
 
+// A target far below the first passes' error is approached in two forecasts: the first, from the
+// two passes, goes halfway to its count, where the error is estimated again (the passes made
+// kept) and the rest forecast from there. The pass counts follow from fixed runs of the same
+// passes (each to the bit the continued run's first passes): the rule's, computed here from their
+// estimated errors; the one-step forecast would stop elsewhere on this scene.
+TEST(SceneBeamShare, TargetErrorForecastsAgainHalfway) {
+    Scene scene = smallScene();
+    LightSpec light;
+    light.fieldXDeg = 8.0, light.fieldYDeg = 3.0;
+    scene.lights = {light};
+    const LensSystem lens = buildSceneLens(scene);
+    PreviewBudget budget;
+    budget.beamsPerPass = 32;
+    budget.direct = false;
+    const double e2 = previewScene(scene, lens, false, budget).ghostEstimatedError;
+    ASSERT_GT(e2, 0.0);
+    const double target = 0.3 * e2;
+    auto roundsOf = [](double passes) { return 2 * static_cast<int>(std::ceil(passes / 2.0)); };
+    // From 2 passes: (e2/target)² × 2 × 1.1 = 24.4 → 25, more than twice 2: halfway, 2 + 12 = 14.
+    const double oneStep = std::ceil(2.0 * (e2 / target) * (e2 / target) * 1.1);
+    const int halfway = roundsOf(2.0 + std::ceil(0.5 * (oneStep - 2.0)));
+    ASSERT_EQ(halfway, 14);
+    PreviewBudget fixed = budget;
+    fixed.passes = halfway;
+    const ScenePreview atHalfway = previewScene(scene, lens, false, fixed);
+    // Met there, the passes stop; else the rest is forecast from there (halfway again if far).
+    int expected = halfway;
+    if (atHalfway.ghostEstimatedError > target) {
+        const double ratio = atHalfway.ghostEstimatedError / target;
+        double next = std::ceil(halfway * ratio * ratio * 1.1);
+        if (next > 2.0 * halfway) next = halfway + std::ceil(0.5 * (next - halfway));
+        expected = std::max(halfway + 2, roundsOf(next));
+    }
+    budget.targetError = target;
+    const ScenePreview reached = previewScene(scene, lens, false, budget);
+    fixed.passes = expected;
+    const ScenePreview atExpected = expected == halfway ? atHalfway : previewScene(scene, lens, false, fixed);
+    ASSERT_LE(atExpected.ghostEstimatedError, target);
+    EXPECT_EQ(reached.passes, expected);
+    EXPECT_EQ(reached.ghosts, atExpected.ghosts);
+    EXPECT_LE(reached.ghostEstimatedError, target);
+    EXPECT_NE(reached.passes, roundsOf(oneStep));  // where the one-step forecast stopped
+}
+
 }  // namespace
 }  // namespace flare
