@@ -6,10 +6,10 @@
 // photon batches, each with random numbers of its own (Render.h). The ranks take the jobs as they
 // become free, in chunks claimed from a counter shared by all (claimJobs, claimChunk): so a rank
 // busy elsewhere (rank 0 ending the last pass) takes fewer, and all finish tracing together
-// whatever the jobs cost. They exchange what they produced (PassWire.h, allToAll): each rank owns a group of the film's
-// bands and rasterises every beam over them, and rank 0, which holds the film, splats every hit,
-// adds the owners' band images and ends the pass exactly as one process does: same jobs, same
-// order in every band, same sums. The other ranks trace the next pass while rank 0 ends this one
+// whatever the jobs cost. They exchange what they produced (PassWire.h, allToAll): each rank
+// owns a group of the film's bands and rasterises every beam over them, and rank 0, which holds
+// the film, splats every hit, adds the owners' band images and ends the pass exactly as one
+// process does: same jobs, same order in every band, same sums. The other ranks trace the next pass while rank 0 ends this one
 // (they need nothing from the film). So the image, the tallies and the report are bitwise those
 // of one process, for any number of processes and threads, and a checkpoint written by R
 // processes resumes with any other number.
