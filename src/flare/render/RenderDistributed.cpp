@@ -66,8 +66,11 @@ struct DistributedPasses {
     // so that the others trace the next pass at once).
     std::vector<int> bandStart, nextBandStart;
     // Rank 0: each band's rasterising in the last pass (per thread of its owner) and each rank's
-    // time besides its bands in the band phase.
+    // time besides its bands in the band phase, of which rank 0's splatting every hit (rootHitsS);
+    // and that pass's sizes, by which they are scaled to the pass they split (balancedBands).
     std::vector<double> bandSeconds, besidesBandsS;
+    double rootHitsS = 0.0;
+    PassSizes costSizes;
 };
 
 namespace {
@@ -313,7 +316,24 @@ void Renderer::runDistributedPass() {
     // while they receive rank 0's beams. Every rank has claimed its last job of the pass: its
     // counter starts again for the pass after next.
     const auto exchangeStart = std::chrono::steady_clock::now();
-    d.nextBandStart = d.bandSeconds.empty() ? d.bandStart : renderer::balancedBands(d.bandSeconds, d.besidesBandsS);
+    if (d.bandSeconds.empty()) {
+        d.nextBandStart = d.bandStart;
+    } else {
+        // The costs are pass p − 1's, the split pass p + 1's: the adaptive plan changes the beams and
+        // the photon batches from pass to pass, and rasterising scales with the beams, rank 0's
+        // splatting the hits with the batches (the rest, decoding and ending its bands, is taken
+        // as it was).
+        const int next = statistics_.passes + 1;
+        const renderer::PassSizes& from = d.costSizes;
+        const renderer::PassSizes to = next < static_cast<int>(passSizes_.size()) ? passSizes(next) : from;
+        const double beamsRatio = from.beamScale > 0.0 ? to.beamScale / from.beamScale : 1.0;
+        const double batchesRatio =
+            from.photonBatches > 0 ? static_cast<double>(to.photonBatches) / static_cast<double>(from.photonBatches) : 1.0;
+        std::vector<double> bandSeconds = d.bandSeconds, besidesS = d.besidesBandsS;
+        for (double& seconds : bandSeconds) seconds *= beamsRatio;
+        besidesS[0] += d.rootHitsS * (batchesRatio - 1.0);
+        d.nextBandStart = renderer::balancedBands(bandSeconds, besidesS);
+    }
     broadcastNextSplit();
     exchange.allToAll(d.outboxes, d.inbox);
     exchange.resetClaims(statistics_.passes % 2);
@@ -342,13 +362,24 @@ void Renderer::runDistributedPass() {
     const int bandCount = film_.bandCount();
     const HitsByBand byBand = hitsByBand(batches_, beamJobs);
     const int firstOwn = d.bandStart[0], endOwn = d.bandStart[1];
+    std::vector<double> ownHitsS(static_cast<size_t>(endOwn - firstOwn), 0.0);
     std::vector<double> ownSeconds = ownBands(
-        beamJobs, [&](int band) { splatHitsInBand(band, byBand[band]); },
+        beamJobs,
+        [&](int band) {
+            const auto hitsStart = std::chrono::steady_clock::now();
+            splatHitsInBand(band, byBand[band]);
+            ownHitsS[static_cast<size_t>(band - firstOwn)] = renderer::secondsSince(hitsStart);
+        },
         [&](int band, int, int layer, const double* rows, bool inTotal) { film_.addBand(band, layer, rows, inTotal); });
+    const auto othersHitsStart = std::chrono::steady_clock::now();
     tbb::parallel_for(tbb::blocked_range<int>(0, bandCount, 1), [&](const tbb::blocked_range<int>& range) {
         for (int band = range.begin(); band != range.end(); ++band)
             if (band < firstOwn || band >= endOwn) splatHitsInBand(band, byBand[band]);
     });
+    // (Per thread, as the bands' costs.)
+    d.rootHitsS = renderer::secondsSince(othersHitsStart) +
+                  std::accumulate(ownHitsS.begin(), ownHitsS.end(), 0.0) / std::max(1, tbb::this_task_arena::max_concurrency());
+    d.costSizes = passSizes(statistics_.passes);
     // Every hit is in: the wide kernels are integrated, and rank 0's bands, complete, end their pass
     // now, while the others' bands are on their way (Film::beginEndPass).
     const std::int64_t photons = options_.photonsPerPass();
