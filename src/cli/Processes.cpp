@@ -37,6 +37,14 @@ int Processes::broadcastFromRoot(int value) { return value; }
 
 void Processes::broadcastFromRoot(std::vector<int>&) {}
 
+long Processes::claimJobs(int slot, long count) {
+    const long before = localClaims_[slot & 1];
+    localClaims_[slot & 1] += count;
+    return before;
+}
+
+void Processes::resetClaims(int slot) { localClaims_[slot & 1] = 0; }
+
 void Processes::barrier() {}
 
 void Processes::abort(int code) { std::exit(code); }

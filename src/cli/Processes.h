@@ -31,6 +31,9 @@ public:
     void allToAll(const std::vector<std::vector<char>>& out, std::vector<std::vector<char>>& in) override;
     int broadcastFromRoot(int value) override;
     void broadcastFromRoot(std::vector<int>& values) override;
+    // Over an MPI window at rank 0 (MPI_Fetch_and_op): no rank 0 thread takes part in a claim.
+    long claimJobs(int slot, long count) override;
+    void resetClaims(int slot) override;
     // Collective: returns when every rank has called it.
     void barrier();
     // Ends every rank with `code` (an error on one rank, which the others would wait for forever).
@@ -39,6 +42,7 @@ public:
 private:
     Processes() = default;
     int rank_ = 0, size_ = 1;
+    long localClaims_[2] = {0, 0};  // the job counters of a process alone
 };
 
 // Runs a command's body; with several ranks, an exception on one rank prints its message with the

@@ -34,6 +34,30 @@ struct Sending {
 };
 Sending gSending;
 
+// The shared job counters (PassExchange::claimJobs): two 64-bit integers in a window at rank 0,
+// which every rank adds to with MPI_Fetch_and_op in one passive-target epoch open all session
+// (MPI_Win_lock_all): a claim needs nothing from rank 0's threads. On one node Open MPI's shared
+// memory window (osc sm) makes it an atomic add in rank 0's memory; across nodes, a network with
+// remote atomics (UCX) does the same, and the others progress it when rank 0 next calls MPI.
+struct JobCounters {
+    MPI_Win window = MPI_WIN_NULL;
+    std::int64_t* counts = nullptr;
+    void open(int rank) {
+        const MPI_Aint bytes = rank == 0 ? 2 * sizeof(std::int64_t) : 0;
+        MPI_Win_allocate(bytes, sizeof(std::int64_t), MPI_INFO_NULL, MPI_COMM_WORLD, &counts, &window);
+        if (rank == 0) counts[0] = counts[1] = 0;
+        // (Rank 0's zeros are in place before any rank's first claim.)
+        MPI_Barrier(MPI_COMM_WORLD);
+        MPI_Win_lock_all(MPI_MODE_NOCHECK, window);
+    }
+    void close() {
+        if (window == MPI_WIN_NULL) return;
+        MPI_Win_unlock_all(window);
+        MPI_Win_free(&window);  // (collective: every rank leaves here)
+    }
+};
+JobCounters gCounters;
+
 struct MpiSession {
     bool active = false;
     MpiSession() {
@@ -42,11 +66,16 @@ struct MpiSession {
         int provided = 0;
         MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided);
         active = true;
+        int rank = 0, size = 1;
+        MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+        MPI_Comm_size(MPI_COMM_WORLD, &size);
+        if (size > 1) gCounters.open(rank);
     }
     ~MpiSession() {
         int finalized = 0;
         // (rank 0 has received everything sent to it: it receives each pass's messages in that pass.)
         if (active && MPI_Finalized(&finalized) == MPI_SUCCESS && !finalized) gSending.finish();
+        if (active && MPI_Finalized(&finalized) == MPI_SUCCESS && !finalized) gCounters.close();
         if (active && MPI_Finalized(&finalized) == MPI_SUCCESS && !finalized) MPI_Finalize();
     }
 };
@@ -128,6 +157,31 @@ void Processes::broadcastFromRoot(std::vector<int>& values) {
 int Processes::broadcastFromRoot(int value) {
     if (size_ > 1) MPI_Bcast(&value, 1, MPI_INT, 0, MPI_COMM_WORLD);
     return value;
+}
+
+long Processes::claimJobs(int slot, long count) {
+    if (size_ == 1) {
+        const long before = localClaims_[slot & 1];
+        localClaims_[slot & 1] += count;
+        return before;
+    }
+    const std::int64_t add = count;
+    std::int64_t before = 0;
+    MPI_Fetch_and_op(&add, &before, MPI_INT64_T, 0, slot & 1, MPI_SUM, gCounters.window);
+    MPI_Win_flush(0, gCounters.window);
+    return static_cast<long>(before);
+}
+
+void Processes::resetClaims(int slot) {
+    if (size_ == 1) {
+        localClaims_[slot & 1] = 0;
+        return;
+    }
+    // (Through the window, as every claim: an atomic replace, complete at rank 0 when flushed.)
+    const std::int64_t zero = 0;
+    std::int64_t before = 0;
+    MPI_Fetch_and_op(&zero, &before, MPI_INT64_T, 0, slot & 1, MPI_REPLACE, gCounters.window);
+    MPI_Win_flush(0, gCounters.window);
 }
 
 void Processes::barrier() {

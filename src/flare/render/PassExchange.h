@@ -3,12 +3,13 @@
 // (the CLI's Processes.h over MPI) and the Renderer (Render.h, RenderDistributed.cpp) uses it.
 //
 // A pass's work is a fixed list of jobs, the same for any number of processes: its beams, then its
-// photon batches, each with random numbers of its own (Render.h). The ranks trace the jobs
-// (jobRank: rank 0 a share it adjusts, since it alone ends the pass, the others the rest in turn)
-// and exchange what they produced (PassWire.h, allToAll): each rank owns a group of the film's
-// bands and rasterises every beam over them, and rank 0, which holds the film, splats every hit,
-// adds the owners' band images and ends the pass exactly as one process does: same jobs, same
-// order in every band, same sums. The other ranks trace the next pass while rank 0 ends this one
+// photon batches, each with random numbers of its own (Render.h). The ranks take the jobs as they
+// become free, in chunks claimed from a counter shared by all (claimJobs, claimChunk): so a rank
+// busy elsewhere (rank 0 ending the last pass) takes fewer, and all finish tracing together
+// whatever the jobs cost. They exchange what they produced (PassWire.h, allToAll): each rank
+// owns a group of the film's bands and rasterises every beam over them, and rank 0, which holds
+// the film, splats every hit, adds the owners' band images and ends the pass exactly as one
+// process does: same jobs, same order in every band, same sums. The other ranks trace the next pass while rank 0 ends this one
 // (they need nothing from the film). So the image, the tallies and the report are bitwise those
 // of one process, for any number of processes and threads, and a checkpoint written by R
 // processes resumes with any other number.
@@ -44,33 +45,28 @@ public:
     virtual int broadcastFromRoot(int value) = 0;
     // Collective: rank 0's `values` at every rank (every rank passes as many).
     virtual void broadcastFromRoot(std::vector<int>& values) = 0;
+    // The shared job counters (two: a pass's and the next's, which the others trace ahead): adds
+    // `count` to counter `slot` (0 or 1) and returns its value before, atomically across the ranks
+    // and without any other rank taking part (one-sided), so that a rank claims the next `count`
+    // jobs of a pass while the others trace.
+    virtual long claimJobs(int slot, long count) = 0;
+    // Rank 0: counter `slot` back to 0, done when this returns. No rank may claim from it until a
+    // collective call of rank 0's after this one (a pass's counter is reset after its exchange,
+    // which every rank reaches having claimed its last jobs of the pass, and is next claimed from
+    // two passes on, after the next exchange).
+    virtual void resetClaims(int slot) = 0;
 };
 
-// Rank 0's share of a pass's jobs is rootShare / kShareSteps.
-inline constexpr int kShareSteps = 64;
-
-// The rank that traces job `job` of a pass when rank 0 takes rootShare / kShareSteps of them:
-// rank 0's jobs spread evenly (job j is its when ⌊(j + 1)·s⌋ > ⌊j·s⌋, so that every path's
-// consecutive beams, which cost alike, are shared alike), the others' dealt in turn.
-inline int jobRank(long job, int rootShare, int size) {
-    if (size <= 1) return 0;
-    const long rootBefore = job * rootShare / kShareSteps;  // rank 0's jobs among 0 .. job − 1
-    if ((job + 1) * rootShare / kShareSteps > rootBefore) return 0;
-    return 1 + static_cast<int>((job - rootBefore) % (size - 1));
-}
-
-// Rank 0's share (of kShareSteps, at most an equal one, at least none) that balances the ranks
-// from the others' bands to the next pass's exchange: rank 0 busy `rootFirstS` (its wait and its
-// end of the pass) and then tracing s·J jobs at `rootPerJobS` each takes as long as each other
-// rank tracing its (1 − s)·J / (R − 1) jobs at `otherPerJobS` each:
-// s = (J·a₁ / (R − 1) − rootFirstS) / (J·(a₀ + a₁ / (R − 1))), rounded to the nearest step, at
-// most ⌊kShareSteps / R⌋.
-inline int balancedShare(long jobs, int size, double rootPerJobS, double otherPerJobS, double rootFirstS) {
-    const double others = otherPerJobS / (size - 1);  // the others' time per job of the pass
-    const double share = (static_cast<double>(jobs) * others - rootFirstS) / (static_cast<double>(jobs) * (rootPerJobS + others));
-    // (Clamped in steps: an equal share rounded up would be more than equal, 11 of 64 for 6 ranks.)
-    const long steps = std::lround(std::max(share, 0.0) * kShareSteps);
-    return static_cast<int>(std::min<long>(steps, kShareSteps / size));
+// How many jobs a rank claims at a time when `remaining` of the pass's jobs are not yet claimed
+// (as its last claim saw), with `ranks` ranks of `threads` threads each: guided, a fraction of
+// what is left (tens of claims a pass, each a few microseconds, whatever its size), never fewer than one job per thread (the
+// rank's threads trace a claim in parallel), so that the last claims, one job per thread, leave
+// the ranks within a job of each other at the exchange.
+inline long claimChunk(long remaining, int ranks, int threads) {
+    const long perThread = std::max(1, threads);
+    // (A quarter of an equal share of what is left: the first claims are large, the last small.)
+    const long guided = (std::max(0L, remaining) + 4L * std::max(1, ranks) - 1) / (4L * std::max(1, ranks));
+    return std::max(perThread, (guided + perThread - 1) / perThread * perThread);
 }
 
 }  // namespace flare

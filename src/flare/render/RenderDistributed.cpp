@@ -1,8 +1,9 @@
 // A pass of the final render shared among processes (PassExchange.h). The jobs (beams, photon
 // batches) are shared as before; the film's rows are shared too, in contiguous groups of its bands
 // (Film::kBandRows), one group per rank:
-//   1. each rank traces its share of the jobs (rank 0 a smaller one: it alone does the film's
-//      bookkeeping); the ranks exchange what they traced: each beam's part that a band owner
+//   1. the ranks take the pass's jobs in chunks from a shared counter as they become free
+//      (PassExchange::claimJobs: rank 0, which alone ends the last pass, takes fewer, and all end
+//      their tracing together whatever the jobs cost); the ranks exchange what they traced: each beam's part that a band owner
 //      rasterises (its triangles and rim segments reaching the owner's bands) to that owner, and
 //      everything rank 0 reads (the batches' hits, tallies and statistics, the beams' hits, power
 //      and rays) to rank 0;
@@ -18,8 +19,9 @@
 //      so that what it does alone after them is their bands' part.
 // So every band receives the same additions in the same order as one process makes them: the
 // image is bitwise one process's, whatever the split of the jobs and of the bands, which may
-// therefore follow the measured costs: at every pass's exchange rank 0 broadcasts the next pass's
-// share of the jobs and split of the bands, chosen from the costs measured so far. The exchange is
+// therefore follow the ranks' timing: the jobs go to whichever rank claims them first, and at
+// every pass's exchange rank 0 broadcasts the next pass's split of the bands, chosen from the
+// costs measured so far. The exchange is
 // the one point of a pass where the ranks wait for each other: rank 0 waits for the others' band
 // images only when its own bands are done first, and no other rank waits for rank 0 but at the
 // exchange (docs/distributed.md).
@@ -53,33 +55,22 @@ struct DistributedPasses {
     std::vector<std::vector<char>> inbox;     // per rank: what it sent this one
     std::vector<char> bandsOut;               // a band owner's images (ranks ≠ 0)
     std::vector<std::vector<char>> bandsIn;   // the owners' images (rank 0)
-    // Ranks ≠ 0: the pass traced ahead (its beams; its batches are in the renderer's batches_), and
-    // how long tracing it took.
+    // Ranks ≠ 0: the pass traced ahead (its beams; its batches are in the renderer's batches_),
+    // the jobs this rank claimed of it, in order, and how long tracing them took.
     bool ahead = false;
     std::vector<BeamJob> beamJobs;
+    std::vector<int> mine;
     double traceS = 0.0, traceCpuS = 0.0;
-    // What every rank knows of the current pass: rank 0's share of the jobs (of kShareSteps) and
-    // the bands' owners (rank r owns bands [bandStart[r], bandStart[r + 1])); and of the next pass
-    // (broadcast with the pass's exchange, so that the others trace the next pass at once).
-    int rootShare = 0, nextRootShare = 0;
+    // What every rank knows of the current pass: the bands' owners (rank r owns bands
+    // [bandStart[r], bandStart[r + 1])); and of the next pass (broadcast with the pass's exchange,
+    // so that the others trace the next pass at once).
     std::vector<int> bandStart, nextBandStart;
-    // Rank 0: the costs measured so far: its own last trace (and how many jobs: this pass's, or
-    // the last in which it had a share); the others' of the last pass (their mean), and its adding
-    // the others' bands and ending the last pass (mergeS); each band's rasterising in the last
-    // pass (per thread of its owner) and each rank's time besides its bands in the band phase.
-    double rootTraceS = 0.0, othersTraceS = 0.0, mergeS = -1.0;
-    // How much later than the others (their mean) rank 0 began adding the bands in the last pass:
-    // its band phase and waiting for theirs less their band phase, from the exchange on (where all
-    // meet), at least 0. Rank 0 has that much less time than they do before the next exchange.
-    double lagS = 0.0;
-    // Rank 0's time between passes (after its last pass, before this one: the progress line, the
-    // stop rule), which the others spend tracing: counted with its end of the pass. The smaller of
-    // the last two gaps, so that a one-off (a checkpoint written every minute) does not shrink the
-    // next pass's share.
-    std::chrono::steady_clock::time_point lastPassEnd{};
-    double betweenS = 0.0, lastGapS = -1.0;
-    long rootJobs = 0, othersJobs = 0;
+    // Rank 0: each band's rasterising in the last pass (per thread of its owner) and each rank's
+    // time besides its bands in the band phase, of which rank 0's splatting every hit (rootHitsS);
+    // and that pass's sizes, by which they are scaled to the pass they split (balancedBands).
     std::vector<double> bandSeconds, besidesBandsS;
+    double rootHitsS = 0.0;
+    PassSizes costSizes;
 };
 
 namespace {
@@ -90,20 +81,6 @@ double secondsSince(std::chrono::steady_clock::time_point t) {
 // The process's CPU time (all its threads), s.
 double cpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
 
-// Rank 0's share (of kShareSteps) from the measured costs (balancedShare): rank 0 begins adding the
-// others' bands lagS after them, ends the pass in mergeS and spends betweenS before the next (its
-// plan of the pass after next, the progress line, the stop rule); each side traces at its own
-// measured cost per job (they differ: each rank encodes its beams for the other ranks' bands, rank
-// 0 for fewer of them). Before rank 0 has merged a pass, or before both costs are known: half an equal
-// share.
-int balancedRootShare(const DistributedPasses& d, long jobs, int ranks) {
-    if (d.rootJobs <= 0 || d.othersJobs <= 0 || !(d.rootTraceS > 0.0) || !(d.othersTraceS > 0.0) || !(d.mergeS >= 0.0) ||
-        jobs <= 0)
-        return kShareSteps / (2 * ranks);
-    return balancedShare(jobs, ranks, d.rootTraceS / static_cast<double>(d.rootJobs),
-                         d.othersTraceS / static_cast<double>(d.othersJobs), d.lagS + d.mergeS + d.betweenS);
-}
-
 // The bands split by rows: rank r owns bands [⌊r·B/R⌋, ⌊(r + 1)·B/R⌋).
 std::vector<int> bandsByRows(int bands, int ranks) {
     std::vector<int> start(ranks + 1);
@@ -111,17 +88,26 @@ std::vector<int> bandsByRows(int bands, int ranks) {
     return start;
 }
 
+// How much longer than the others' rank 0's band phase is planned, as a fraction of the mean
+// phase. Rank 0 waiting for the others' band images is time no rank uses; another rank whose
+// bands are done first simply claims more of the next pass's jobs. So rank 0 takes a little more
+// than an equal phase, enough that the band costs' change from pass to pass and the images'
+// transfer do not leave it waiting.
+constexpr double kRootBandLead = 0.15;
+
 // The split of the bands that balances the band phase, from the last pass's costs: rank r's
 // phase takes X_r (its time besides rasterising: decoding, encoding, and at rank 0 every band's
-// hits) plus its bands' costs; each rank gets bands worth t − X_r, t the mean phase. Contiguous
-// groups in row order, each boundary where the running cost crosses its target.
+// hits) plus its bands' costs; each rank gets bands worth t − X_r, t the mean phase, rank 0 a lead
+// of kRootBandLead · t more (taken from the others alike). Contiguous groups in row order, each
+// boundary where the running cost crosses its target.
 std::vector<int> balancedBands(const std::vector<double>& bandSeconds, const std::vector<double>& besidesS) {
     const int bands = static_cast<int>(bandSeconds.size()), ranks = static_cast<int>(besidesS.size());
     const double total = std::accumulate(bandSeconds.begin(), bandSeconds.end(), 0.0);
     if (!(total > 0.0)) return bandsByRows(bands, ranks);
     const double mean = (total + std::accumulate(besidesS.begin(), besidesS.end(), 0.0)) / ranks;
     std::vector<double> budget(ranks);
-    for (int r = 0; r < ranks; ++r) budget[r] = std::max(0.0, mean - besidesS[r]);
+    for (int r = 0; r < ranks; ++r)
+        budget[r] = std::max(0.0, mean - besidesS[r] + (r == 0 ? kRootBandLead * mean : -kRootBandLead * mean / (ranks - 1)));
     const double budgets = std::accumulate(budget.begin(), budget.end(), 0.0);
     std::vector<int> start(ranks + 1, bands);
     start[0] = 0;
@@ -148,11 +134,8 @@ void Renderer::setExchange(PassExchange* exchange) {
     const int ranks = exchange_->size();
     distributed_->outboxes.resize(static_cast<size_t>(ranks));
     distributed_->inbox.resize(static_cast<size_t>(ranks));
-    // A session's first pass: an equal share (every rank traces it at once, and rank 0 has no
-    // pass to merge meanwhile), and the bands split by rows.
-    distributed_->rootShare = kShareSteps / ranks;
+    // A session's first pass: the bands split by rows.
     distributed_->bandStart = renderer::bandsByRows(film_.bandCount(), ranks);
-    distributed_->nextRootShare = distributed_->rootShare;
     distributed_->nextBandStart = distributed_->bandStart;
     // Rank 0 makes the error estimates asked after every pass (the flare's: the progress line and
     // the stop rule; the adaptive plan's) band by band as the pass ends: its own bands' part while
@@ -178,32 +161,42 @@ void Renderer::runDistributedPass() {
     const FilmFrame frame = renderer::filmFrame(options_.film);
     const renderer::PhotonBatchInputs batchInputs{*lens_, options_, tracer_, indexTable_, lightStates_, components_,
                                                   componentCdf_, scatterSourceLayer_, tallies_.size()};
-    // This rank's jobs of the current pass at rank 0's share `rootShare`, traced in parallel on its
-    // threads; returns how many.
-    auto traceShare = [&](std::vector<renderer::BeamJob>& beamJobs, int rootShare) {
-        const int beams = static_cast<int>(beamJobs.size()), batches = batchCount();
+    // The current pass's jobs this rank claims (PassExchange::claimJobs, on the pass's counter),
+    // chunk by chunk as its threads become free, each chunk traced in parallel on them; returns the
+    // jobs it traced, in order. (Claims are made by this thread alone: MPI is called from the main
+    // thread only.)
+    auto traceClaimed = [&](std::vector<renderer::BeamJob>& beamJobs) {
+        const int beams = static_cast<int>(beamJobs.size());
+        const long jobs = beams + batchCount();
+        const int slot = statistics_.passes % 2;
+        const int threads = tbb::this_task_arena::max_concurrency();
         std::vector<int> mine;
-        for (int j = 0; j < beams + batches; ++j)
-            if (jobRank(j, rootShare, ranks) == rank) mine.push_back(j);
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, mine.size(), 1), [&](const tbb::blocked_range<size_t>& range) {
-            for (size_t i = range.begin(); i != range.end(); ++i) {
-                const int j = mine[i];
-                if (j < beams)
-                    renderer::traceBeam(*lens_, options_, tracer_, lightStates_[beamJobs[j].light], statistics_.passes,
-                                        beamJobs[j]);
-                else
-                    renderer::traceBatch(batchInputs, batchesDone_ + (j - beams), batches_[j - beams]);
-            }
-        });
-        return static_cast<long>(mine.size());
+        for (;;) {
+            // (What is left read first, so that a rank back from a long chunk does not claim by
+            // what was left before it: two claims of a few microseconds.)
+            const long count = claimChunk(jobs - exchange.claimJobs(slot, 0), ranks, threads);
+            const long first = exchange.claimJobs(slot, count);
+            if (first >= jobs) break;
+            const long end = std::min(jobs, first + count);
+            tbb::parallel_for(tbb::blocked_range<long>(first, end, 1), [&](const tbb::blocked_range<long>& range) {
+                for (long j = range.begin(); j != range.end(); ++j) {
+                    if (j < beams)
+                        renderer::traceBeam(*lens_, options_, tracer_, lightStates_[beamJobs[j].light],
+                                            statistics_.passes, beamJobs[j]);
+                    else
+                        renderer::traceBatch(batchInputs, batchesDone_ + (j - beams), batches_[j - beams]);
+                }
+            });
+            for (long j = first; j < end; ++j) mine.push_back(static_cast<int>(j));
+        }
+        return mine;
     };
-    // What this rank traced of the pass, into the outboxes: each beam's part for every other
-    // band owner, and to rank 0 the results it reads (rank 0's own stay where they are).
-    auto encodeShare = [&](const std::vector<renderer::BeamJob>& beamJobs) {
-        const int beams = static_cast<int>(beamJobs.size()), batches = batchCount();
+    // What this rank traced of the pass (`mine`), into the outboxes: each beam's part for every
+    // other band owner, and to rank 0 the results it reads (rank 0's own stay where they are).
+    auto encodeShare = [&](const std::vector<renderer::BeamJob>& beamJobs, const std::vector<int>& mine) {
+        const int beams = static_cast<int>(beamJobs.size());
         for (auto& box : d.outboxes) box.clear();
-        for (int j = 0; j < beams + batches; ++j) {
-            if (jobRank(j, d.rootShare, ranks) != rank) continue;
+        for (const int j : mine) {
             if (j >= beams) {
                 if (rank != 0) renderer::writeBatch(j - beams, batches_[j - beams], d.outboxes[0]);
                 continue;
@@ -234,11 +227,10 @@ void Renderer::runDistributedPass() {
         for (double& s : seconds) s /= threads;
         return seconds;
     };
-    // The next pass's share and bands, and its sizes (planned by rank 0 a pass earlier), from rank
-    // 0 to every rank, at the pass's exchange (where every rank meets anyway).
+    // The next pass's bands and sizes (planned by rank 0 a pass earlier), from rank 0 to every
+    // rank, at the pass's exchange (where every rank meets anyway).
     auto broadcastNextSplit = [&] {
         std::vector<int> values(d.nextBandStart.begin(), d.nextBandStart.end());
-        values[0] = d.nextRootShare;  // (bandStart[0] is 0)
         const int next = statistics_.passes + 1;
         passSizes_.resize(static_cast<size_t>(std::max<int>(next + 1, static_cast<int>(passSizes_.size()))));
         values.push_back(static_cast<int>(std::lround(passSizes(next).beamScale * renderer::kBeamScaleSteps)));
@@ -247,15 +239,10 @@ void Renderer::runDistributedPass() {
         passSizes_[static_cast<size_t>(next)] = {static_cast<double>(values[values.size() - 2]) / renderer::kBeamScaleSteps,
                                                  values.back()};
         values.resize(values.size() - 2);
-        d.nextRootShare = values[0];
         d.nextBandStart.assign(values.begin(), values.end());
-        d.nextBandStart[0] = 0;
     };
     // The pass is over: the next pass's split is the current one.
-    auto advanceSplit = [&] {
-        d.rootShare = d.nextRootShare;
-        d.bandStart = d.nextBandStart;
-    };
+    auto advanceSplit = [&] { d.bandStart = d.nextBandStart; };
 
     if (rank != 0) {
         // The pass's beam jobs drawn, and this rank's share traced and timed.
@@ -264,7 +251,7 @@ void Renderer::runDistributedPass() {
             d.beamJobs = drawBeamJobs();
             const auto traceStart = std::chrono::steady_clock::now();
             const double cpuStart = renderer::cpuSeconds();
-            traceShare(d.beamJobs, d.rootShare);
+            d.mine = traceClaimed(d.beamJobs);
             d.traceS = renderer::secondsSince(traceStart);
             d.traceCpuS = renderer::cpuSeconds() - cpuStart;
         };
@@ -274,7 +261,7 @@ void Renderer::runDistributedPass() {
         const int batches = batchCount();
         const auto encodeStart = std::chrono::steady_clock::now();
         const double encodeCpuStart = renderer::cpuSeconds();
-        encodeShare(d.beamJobs);
+        encodeShare(d.beamJobs, d.mine);
         renderer::writeTraceTime(d.traceS + renderer::secondsSince(encodeStart),
                                  d.traceCpuS + renderer::cpuSeconds() - encodeCpuStart, d.outboxes[0]);
         broadcastNextSplit();
@@ -310,39 +297,46 @@ void Renderer::runDistributedPass() {
         return;
     }
 
-    if (d.lastPassEnd != std::chrono::steady_clock::time_point{}) {
-        const double gapS = renderer::secondsSince(d.lastPassEnd);
-        d.betweenS = d.lastGapS >= 0.0 ? std::min(gapS, d.lastGapS) : gapS;
-        d.lastGapS = gapS;
-    }
     const int replicate = replicateOfPass(statistics_.passes);
     startPass();
     const int batches = batchCount();
     std::vector<renderer::BeamJob> beamJobs = drawBeamJobs();
     const int beams = static_cast<int>(beamJobs.size());
     const long jobs = beams + batches;
-    const int share = d.rootShare;
     const auto traceStart = std::chrono::steady_clock::now();
     const double traceCpuStart = renderer::cpuSeconds();
-    const long traced = traceShare(beamJobs, share);
-    encodeShare(beamJobs);
-    const double rootTraceS = renderer::secondsSince(traceStart);
-    if (traced > 0) {  // (with no share, rank 0's cost per job is the last one measured)
-        d.rootTraceS = rootTraceS;
-        d.rootJobs = traced;
-    }
-    exchangeCosts_.traceS += rootTraceS;
+    const std::vector<int> mine = traceClaimed(beamJobs);
+    const long traced = static_cast<long>(mine.size());
+    encodeShare(beamJobs, mine);
+    exchangeCosts_.traceS += renderer::secondsSince(traceStart);
     exchangeCosts_.traceCpuS += renderer::cpuSeconds() - traceCpuStart;
 
-    // The next pass's share and bands, from the costs measured so far (this pass's trace at rank
-    // 0, the last pass's elsewhere), which the others use as soon as their bands of this pass are
-    // done; then the others' results (their beams cut to rank 0's bands), while they receive
-    // rank 0's beams.
+    // The next pass's bands, from the last pass's costs, which the others use as soon as their
+    // bands of this pass are done; then the others' results (their beams cut to rank 0's bands),
+    // while they receive rank 0's beams. Every rank has claimed its last job of the pass: its
+    // counter starts again for the pass after next.
     const auto exchangeStart = std::chrono::steady_clock::now();
-    d.nextRootShare = renderer::balancedRootShare(d, jobs, ranks);
-    d.nextBandStart = d.bandSeconds.empty() ? d.bandStart : renderer::balancedBands(d.bandSeconds, d.besidesBandsS);
+    if (d.bandSeconds.empty()) {
+        d.nextBandStart = d.bandStart;
+    } else {
+        // The costs are pass p − 1's, the split pass p + 1's: the adaptive plan changes the beams and
+        // the photon batches from pass to pass, and rasterising scales with the beams, rank 0's
+        // splatting the hits with the batches (the rest, decoding and ending its bands, is taken
+        // as it was).
+        const int next = statistics_.passes + 1;
+        const renderer::PassSizes& from = d.costSizes;
+        const renderer::PassSizes to = next < static_cast<int>(passSizes_.size()) ? passSizes(next) : from;
+        const double beamsRatio = from.beamScale > 0.0 ? to.beamScale / from.beamScale : 1.0;
+        const double batchesRatio =
+            from.photonBatches > 0 ? static_cast<double>(to.photonBatches) / static_cast<double>(from.photonBatches) : 1.0;
+        std::vector<double> bandSeconds = d.bandSeconds, besidesS = d.besidesBandsS;
+        for (double& seconds : bandSeconds) seconds *= beamsRatio;
+        besidesS[0] += d.rootHitsS * (batchesRatio - 1.0);
+        d.nextBandStart = renderer::balancedBands(bandSeconds, besidesS);
+    }
     broadcastNextSplit();
     exchange.allToAll(d.outboxes, d.inbox);
+    exchange.resetClaims(statistics_.passes % 2);
     exchangeCosts_.gatherS += renderer::secondsSince(exchangeStart);
     const auto bandsStart = std::chrono::steady_clock::now();
     const double bandsCpuStart = renderer::cpuSeconds();
@@ -359,24 +353,33 @@ void Renderer::runDistributedPass() {
         throw std::runtime_error("distributed render: pass " + std::to_string(statistics_.passes) + " gathered " +
                                  std::to_string(received) + " job results of " + std::to_string(jobs));
     weightPhotonHits(batches_);
-    d.othersTraceS = othersTraceS / (ranks - 1);
-    d.othersJobs = (jobs - traced + (ranks - 2)) / (ranks - 1);
-    exchangeCosts_.othersTraceS += d.othersTraceS;
+    exchangeCosts_.othersTraceS += othersTraceS / (ranks - 1);
     exchangeCosts_.othersTraceCpuS += othersTraceCpuS / (ranks - 1);
-    exchangeCosts_.rootShare += static_cast<double>(share) / kShareSteps;
+    exchangeCosts_.rootShare += jobs > 0 ? static_cast<double>(traced) / static_cast<double>(jobs) : 0.0;
 
     // Every band's hits (the adaptive kernels' counts and the wide kernels' sums need them all,
     // Film.h), rank 0's bands' beams too: each band's hits before its beams, as one process.
     const int bandCount = film_.bandCount();
     const HitsByBand byBand = hitsByBand(batches_, beamJobs);
     const int firstOwn = d.bandStart[0], endOwn = d.bandStart[1];
+    std::vector<double> ownHitsS(static_cast<size_t>(endOwn - firstOwn), 0.0);
     std::vector<double> ownSeconds = ownBands(
-        beamJobs, [&](int band) { splatHitsInBand(band, byBand[band]); },
+        beamJobs,
+        [&](int band) {
+            const auto hitsStart = std::chrono::steady_clock::now();
+            splatHitsInBand(band, byBand[band]);
+            ownHitsS[static_cast<size_t>(band - firstOwn)] = renderer::secondsSince(hitsStart);
+        },
         [&](int band, int, int layer, const double* rows, bool inTotal) { film_.addBand(band, layer, rows, inTotal); });
+    const auto othersHitsStart = std::chrono::steady_clock::now();
     tbb::parallel_for(tbb::blocked_range<int>(0, bandCount, 1), [&](const tbb::blocked_range<int>& range) {
         for (int band = range.begin(); band != range.end(); ++band)
             if (band < firstOwn || band >= endOwn) splatHitsInBand(band, byBand[band]);
     });
+    // (Per thread, as the bands' costs.)
+    d.rootHitsS = renderer::secondsSince(othersHitsStart) +
+                  std::accumulate(ownHitsS.begin(), ownHitsS.end(), 0.0) / std::max(1, tbb::this_task_arena::max_concurrency());
+    d.costSizes = passSizes(statistics_.passes);
     // Every hit is in: the wide kernels are integrated, and rank 0's bands, complete, end their pass
     // now, while the others' bands are on their way (Film::beginEndPass).
     const std::int64_t photons = options_.photonsPerPass();
@@ -423,7 +426,6 @@ void Renderer::runDistributedPass() {
         othersBandsCpuS += message.phaseCpuS;
     }
     exchangeCosts_.othersBandsS += othersBandsS / (ranks - 1);
-    d.lagS = std::max(0.0, rootBandsS + bandsWaitS - othersBandsS / (ranks - 1));
     exchangeCosts_.othersBandsCpuS += othersBandsCpuS / (ranks - 1);
 
     // The others' bands: their images, each band's in its owner's order, straight from the
@@ -441,9 +443,7 @@ void Renderer::runDistributedPass() {
     });
     addPassTallies(beamJobs, replicate);
     film_.finishEndPass();
-    d.mergeS = renderer::secondsSince(mergeStart);
-    d.lastPassEnd = std::chrono::steady_clock::now();
-    exchangeCosts_.mergeS += d.mergeS;
+    exchangeCosts_.mergeS += renderer::secondsSince(mergeStart);
     exchangeCosts_.mergeCpuS += renderer::cpuSeconds() - mergeCpuStart;
     advanceSplit();
     ++exchangeCosts_.passes;
