@@ -296,9 +296,12 @@ void registerRender(py::module_& m) {
            const py::object& seed, int threads, const std::string& mode, const py::object& layers, std::optional<int> maxBounces,
            const std::string& higherOrderChoice, const std::string& kernelChoice, double radiusPx, int smoothNeighbours,
            std::optional<double> interiorAlbedo, std::optional<bool> diffraction, bool analogStray, int beamReplicates,
-           int scatterSplits, const py::object& progress, std::optional<std::string> checkpoint, double checkpointIntervalS) {
+           int beamProbes, int scatterSplits, const py::object& progress, std::optional<std::string> checkpoint, double checkpointIntervalS) {
             require(beamReplicates >= 2 && beamReplicates <= kMaxReplicates,
                     "beam_replicates: in [2, " + std::to_string(kMaxReplicates) + "], got " + std::to_string(beamReplicates));
+            // As --beam-probes: one probe has no spread to measure.
+            require(beamProbes == 0 || (beamProbes >= 2 && beamProbes <= 64),
+                    "beam_probes: 0, or 2 to 64, got " + std::to_string(beamProbes));
             require(scatterSplits >= 1 && scatterSplits <= kMaxStrayBranches + 1,
                     "scatter_splits: in [1, " + std::to_string(kMaxStrayBranches + 1) + "], got " +
                         std::to_string(scatterSplits));
@@ -316,6 +319,7 @@ void registerRender(py::module_& m) {
             overrides.interiorAlbedo = interiorAlbedo;
             overrides.strayLightSampling = !analogStray;
             overrides.beamReplicates = beamReplicates;
+            overrides.beamVarianceProbes = beamProbes;
             overrides.scatterSplits = scatterSplits;
             return render(withDiffraction(scene, diffraction),
                           RenderArguments{photons, timeS, targetError, threads, progress, checkpoint, checkpointIntervalS},
@@ -327,6 +331,7 @@ void registerRender(py::module_& m) {
         py::arg("higher_order") = "auto", py::arg("kernel") = "fixed", py::arg("radius_px") = 1.0,
         py::arg("smooth_neighbours") = 256, py::arg("interior_albedo") = py::none(), py::arg("diffraction") = py::none(),
         py::arg("analog_stray") = false, py::arg("beam_replicates") = 2,
+        py::arg("beam_probes") = RenderOptions{}.beamVarianceProbes,
         py::arg("scatter_splits") = kDefaultScatterSplits, py::arg("progress") = py::none(), py::arg("checkpoint") = py::none(), py::arg("checkpoint_interval_s") = 60.0,
         "The physically based render, as `flare render` with the same options and defaults: it stops at the target "
         "error, time_s or photons, whichever comes first, after at least two passes (without time_s or photons at the "

@@ -160,7 +160,7 @@ def render(scene: Scene, *, photons: Optional[int] = None, time_s: Optional[floa
            seed: Optional[int] = None, threads: int = 0, mode: str = "guided", layers: Union[bool, str] = False,
            max_bounces: Optional[int] = None, higher_order: str = "auto", kernel: str = "fixed",
            radius_px: float = 1.0, smooth_neighbours: int = 256, interior_albedo: Optional[float] = None,
-           diffraction: Optional[bool] = None, analog_stray: bool = False, beam_replicates: int = 2,
+           diffraction: Optional[bool] = None, analog_stray: bool = False, beam_replicates: int = 2, beam_probes: int = 4,
            scatter_splits: int = 8, progress: Optional[Callable[[Dict[str, Any]], Optional[bool]]] = None, checkpoint: Optional[str] = None,
            checkpoint_interval_s: float = 60.0) -> RenderResult:
     """The physically based render, as `flare render`."""

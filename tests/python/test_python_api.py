@@ -271,6 +271,9 @@ class PythonApiTest(unittest.TestCase):
             flare.render(self.scene, photons=1, seed="1")
         with self.assertRaisesRegex(ValueError, r"beam_replicates"):
             flare.render(self.scene, photons=1, beam_replicates=1)
+        for probes in (1, -1, 65):
+            with self.assertRaisesRegex(ValueError, r"beam_probes: 0, or 2 to 64, got " + str(probes)):
+                flare.render(self.scene, photons=1, beam_probes=probes)
 
     # Warnings.
 
