@@ -86,17 +86,29 @@ TEST(SceneBeamShare, ByPowerIsUnbiasedAndLowersTheError) {
     EXPECT_NEAR(sumB / sumA, 1.0, 3.0 * spread);
 }
 
-// A target error continues the passes made (whole rounds) rather than starting again: the image is
-// that of a fixed count of the same passes, to the bit, and its estimated error meets the target.
-TEST(SceneBeamShare, TargetErrorContinuesThePasses) {
+// The small scene with one sun at (8°, 3°), and a budget of 32 beams a pass for its ghosts alone:
+// what the target-error tests continue passes on.
+Scene oneSunScene() {
     Scene scene = smallScene();
     LightSpec light;
     light.fieldXDeg = 8.0, light.fieldYDeg = 3.0;
     scene.lights = {light};
-    const LensSystem lens = buildSceneLens(scene);
+    return scene;
+}
+
+PreviewBudget ghostsOnlyBudget() {
     PreviewBudget budget;
     budget.beamsPerPass = 32;
     budget.direct = false;
+    return budget;
+}
+
+// A target error continues the passes made (whole rounds) rather than starting again: the image is
+// that of a fixed count of the same passes, to the bit, and its estimated error meets the target.
+TEST(SceneBeamShare, TargetErrorContinuesThePasses) {
+    const Scene scene = oneSunScene();
+    const LensSystem lens = buildSceneLens(scene);
+    PreviewBudget budget = ghostsOnlyBudget();
     const ScenePreview two = previewScene(scene, lens, false, budget);
     budget.targetError = 0.6 * two.ghostEstimatedError;
     const ScenePreview reached = previewScene(scene, lens, false, budget);
@@ -119,14 +131,9 @@ TEST(SceneBeamShare, TargetErrorContinuesThePasses) {
 // passes (each to the bit the continued run's first passes): the rule's, computed here from their
 // estimated errors; the one-step forecast would stop elsewhere on this scene.
 TEST(SceneBeamShare, TargetErrorForecastsAgainHalfway) {
-    Scene scene = smallScene();
-    LightSpec light;
-    light.fieldXDeg = 8.0, light.fieldYDeg = 3.0;
-    scene.lights = {light};
+    const Scene scene = oneSunScene();
     const LensSystem lens = buildSceneLens(scene);
-    PreviewBudget budget;
-    budget.beamsPerPass = 32;
-    budget.direct = false;
+    PreviewBudget budget = ghostsOnlyBudget();
     const double e2 = previewScene(scene, lens, false, budget).ghostEstimatedError;
     ASSERT_GT(e2, 0.0);
     const double target = 0.3 * e2;
