@@ -142,6 +142,13 @@ void traceCorrectionPhotons(const RenderOptions& options, const LightState& ligh
 
 }  // namespace
 
+double beamCostRays(const GhostBeam& beam, int correctionPhotonsPerBeam) {
+    // Rasterising a pixel costs about a tenth of a traced ray.
+    double imageAreaPx2 = 0.0;
+    for (const BeamTriangle& t : beam.triangles()) imageAreaPx2 += t.small ? 0.0 : t.imageAreaPx2;
+    return static_cast<double>(beam.tracedRays()) + 0.1 * imageAreaPx2 + correctionPhotonsPerBeam * 2.0;
+}
+
 FilmFrame filmFrame(const FilmSettings& film) {
     return {film.widthPx, film.heightPx, film.widthMm, film.heightMm, film.widthMm / film.widthPx};
 }
@@ -178,16 +185,13 @@ BeamProbe probeBeamPath(const LensSystem& lens, const SpectralIndices& indices, 
             if (!probe.empty()) break;
         }
     if (probe.empty()) return out;
-    double squaredNorm = 0.0, imageAreaPx2 = 0.0;
+    double squaredNorm = 0.0;
     for (const BeamTriangle& t : probe.triangles()) {
         const double power = t.pupilAreaMm2 * (t.throughput[0] + t.throughput[1] + t.throughput[2]) / 3.0;
         const double area = t.small ? 1.0 : std::max(t.imageAreaPx2, 1.0);
         squaredNorm += power * power / area;
-        imageAreaPx2 += t.small ? 0.0 : t.imageAreaPx2;
     }
-    // Cost in units of a traced ray: rasterising a pixel costs about a tenth of one.
-    const double cost = static_cast<double>(probe.tracedRays()) + 0.1 * imageAreaPx2 +
-                        options.correctionPhotonsPerBeam * 2.0;
+    const double cost = beamCostRays(probe, options.correctionPhotonsPerBeam);
     out.weight = std::sqrt(squaredNorm / cost) * (out.spectralPower / estimate.powerFraction);
     out.beams = true;
     return out;

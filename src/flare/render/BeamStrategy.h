@@ -35,6 +35,10 @@ namespace flare::renderer {
 // Where the film's pixels are, for the beams' images.
 FilmFrame filmFrame(const FilmSettings& film);
 
+// What a beam costs, in traced rays: its rays, a tenth of one per pixel of its image rasterised,
+// and its correction photons with their twins.
+double beamCostRays(const GhostBeam& beam, int correctionPhotonsPerBeam);
+
 // A path's plan for beams, from a probe beam at the analysis's wavelength and the light's central
 // direction.
 struct BeamProbe {

@@ -117,10 +117,7 @@ BeamPathVariance probeBeamVariance(const LensSystem& lens, const RenderOptions& 
         job.rate = 1.0;  // film units of a path drawn once a pass: every path's variance alike
         job.sequenceIndex = 0;
         traceBeam(lens, probeOptions, tracer, light, 0, job);
-        double imageAreaPx2 = 0.0;
-        for (const BeamTriangle& t : job.beam.triangles()) imageAreaPx2 += t.small ? 0.0 : t.imageAreaPx2;
-        out.costRays += static_cast<double>(job.beam.tracedRays()) + 0.1 * imageAreaPx2 +
-                        options.correctionPhotonsPerBeam * 2.0;
+        out.costRays += beamCostRays(job.beam, options.correctionPhotonsPerBeam);
     }
     out.costRays /= probes;
     std::vector<BeamImage> images;
