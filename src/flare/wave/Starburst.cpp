@@ -193,22 +193,27 @@ public:
             value += far.tailScale * (envelope * fannedTailShape(tA, tB));
             return;
         }
-        const int pieces = std::clamp(static_cast<int>(std::ceil(std::abs(along * fanWidth) / 4.0)), 1, 16);
+        constexpr int kMaxPieces = 16;
+        const int pieces = std::clamp(static_cast<int>(std::ceil(std::abs(along * fanWidth) / 4.0)), 1, kMaxPieces);
         const double step = fanWidth / pieces;
+        // The pieces' turns and transverse offsets, the same for the three channels.
+        double from[kMaxPieces], to[kMaxPieces], centre[kMaxPieces];
+        for (int p = 0; p < pieces; ++p) {
+            from[p] = spike.fanFromRad + p * step, to[p] = from[p] + step;
+            centre[p] = t - along * 0.5 * (from[p] + to[p]);
+        }
         for (int c = 0; c < 3; ++c) {
             const TransverseProfile& profile = profiles_[s][c];
-            if (std::min(tA, tB) > profile.bandLo() && std::max(tA, tB) < profile.bandHi()) {
+            const double bandLo = profile.bandLo(), bandHi = profile.bandHi();
+            if (std::min(tA, tB) > bandLo && std::max(tA, tB) < bandHi) {
                 value[c] += spike.lineDensity[c] * envelope * profile.fanned(t, along, spike.fanFromRad, spike.fanToRad);
                 continue;
             }
             double share = 0.0;
-            for (int p = 0; p < pieces; ++p) {
-                const double from = spike.fanFromRad + p * step, to = from + step;
-                const double centre = t - along * 0.5 * (from + to);
-                share += centre > profile.bandLo() && centre < profile.bandHi()
-                             ? profile.fanned(t, along, from, to)
-                             : cropEnergy_[c] * pixelTail(centre, spike.transverseWidthPx[c]);
-            }
+            for (int p = 0; p < pieces; ++p)
+                share += centre[p] > bandLo && centre[p] < bandHi
+                             ? profile.fanned(t, along, from[p], to[p])
+                             : cropEnergy_[c] * pixelTail(centre[p], spike.transverseWidthPx[c]);
             value[c] += spike.lineDensity[c] * envelope * share / pieces;
         }
     }
