@@ -32,8 +32,9 @@ void forEachTarget(Body body) {
 
 bool sameBits(float a, float b) { return std::signbit(a) == std::signbit(b) && (a == b || (a != a && b != b)); }
 
-// Scalar terms whose result depends on the value so far (a reordering changes the bits), and
-// which count their calls.
+// Scalar terms whose result depends on the value so far (a reordering changes the bits), which
+// count their calls and keep every pixel's spike sum as they are given it (in double: a rounding
+// the float image would hide shows there).
 class CountingTerms final : public detail::FarRowTerms {
 public:
     void spikeShare(int x, size_t spike, glm::dvec3& value) const override {
@@ -42,9 +43,11 @@ public:
     }
     void haloAndCorners(int x, glm::dvec3& value) const override {
         ++haloCalls;
+        sums.push_back(value);
         value = value * 1.25 - glm::dvec3(1e-5 * x, 2e-5, 1e-6 * (x % 3));
     }
     mutable long spikeCalls = 0, haloCalls = 0;
+    mutable std::vector<glm::dvec3> sums;
 };
 
 // A spike as addFarField sets one up: unit direction and its normal, a fan (often none), a band
@@ -107,6 +110,9 @@ TEST(FarFieldRow, SameBitsAsTheScalarLoopOnEveryInstructionSet) {
                 ASSERT_EQ(simdTerms.spikeCalls, scalarTerms.spikeCalls) << target << ": field " << field;
                 ASSERT_EQ(simdTerms.haloCalls, scalarTerms.haloCalls) << target << ": field " << field;
                 ASSERT_EQ(simdY, scalarY) << target << ": field " << field << " row " << r;
+                for (size_t i = 0; i < scalarTerms.sums.size(); ++i)
+                    for (int c = 0; c < 3; ++c)
+                        ASSERT_EQ(simdTerms.sums[i][c], scalarTerms.sums[i][c]) << target << ": field " << field << " row " << r;
                 for (size_t i = 0; i < simd.size(); ++i) {
                     ++compared;
                     ASSERT_TRUE(sameBits(simd[i], scalar[i]))
