@@ -210,10 +210,20 @@ public:
                 continue;
             }
             double share = 0.0;
-            for (int p = 0; p < pieces; ++p)
-                share += centre[p] > bandLo && centre[p] < bandHi
-                             ? profile.fanned(t, along, from[p], to[p])
-                             : cropEnergy_[c] * pixelTail(centre[p], spike.transverseWidthPx[c]);
+            for (int p = 0; p < pieces;) {
+                if (!(centre[p] > bandLo && centre[p] < bandHi)) {
+                    share += cropEnergy_[c] * pixelTail(centre[p], spike.transverseWidthPx[c]);
+                    ++p;
+                    continue;
+                }
+                // A run of pieces in the band: their means over equal turns add up to the run's
+                // mean times their number (the integrals at the pieces' shared ends cancel), two
+                // integrals for the run rather than two a piece; the same sum to rounding.
+                int end = p + 1;
+                while (end < pieces && centre[end] > bandLo && centre[end] < bandHi) ++end;
+                share += (end - p) * profile.fanned(t, along, from[p], to[end - 1]);
+                p = end;
+            }
             value[c] += spike.lineDensity[c] * envelope * share / pieces;
         }
     }
