@@ -13,6 +13,7 @@
 
 #include "flare/wave/DiffractionPsf.h"
 #include "flare/wave/DustGlow.h"
+#include "flare/wave/FarFieldRow.h"
 #include "flare/wave/KissFft.h"
 #include "flare/wave/PsfGroups.h"
 
@@ -138,9 +139,8 @@ TransverseProfile transverseProfile(const std::vector<glm::dvec2>& pointsPx, con
 // Beyond the band the crop is a point: the share of a unit sinc² of width `widthPx` in the pixel
 // whose centre lies t px across the line (its width one pixel, as the box above). Beyond four
 // widths sincSquaredCumulative is the fringe average 1 − 1/(2π²z), which gives w/(2π²(t² − ¼)).
-constexpr double kAveragedTailWidths = 4.0;
 double pixelTail(double t, double widthPx) {
-    if (std::abs(t) - 0.5 > kAveragedTailWidths * widthPx) return widthPx / (2.0 * kPi * kPi * (t * t - 0.25));
+    if (std::abs(t) - 0.5 > detail::kAveragedTailWidths * widthPx) return widthPx / (2.0 * kPi * kPi * (t * t - 0.25));
     return sincSquaredCumulative((t + 0.5) / widthPx) - sincSquaredCumulative((t - 0.5) / widthPx);
 }
 // The mean over the lines of a fan passing at offsets from tA to tB (all on one side, beyond four
@@ -163,6 +163,87 @@ struct FarTaper {
     double weight = 1.0;  // of the far field evaluated: the light's share of the cluster's energy (Y)
 };
 
+// The spike shares FarFieldRow's lanes leave to scalar code (a pixel near a spike's band, or in a
+// wide fan), and the halo and the corners, for one far field's rows.
+class FarFieldTerms final : public detail::FarRowTerms {
+public:
+    FarFieldTerms(const DiffractionPsf& psf, const std::vector<std::array<TransverseProfile, 3>>& profiles,
+                  const std::vector<detail::FarSpike>& spikes, const glm::dvec3& cropEnergy, const glm::dvec2& cropCentre,
+                  double pixelY, bool halo, bool corners)
+        : psf_(psf), profiles_(profiles), spikes_(spikes), cropEnergy_(cropEnergy), cropCentre_(cropCentre),
+          pixelY_(pixelY), halo_(halo), corners_(corners) {}
+
+    void spikeShare(int x, size_t s, glm::dvec3& value) const override {
+        const DiffractionPsf::Spike& spike = psf_.spikes()[s];
+        const detail::FarSpike& far = spikes_[s];
+        const double dx = x + 0.5 - cropCentre_.x, dy = pixelY_ - cropCentre_.y;
+        const double r2 = dx * dx + dy * dy;
+        const double inverseR4 = 1.0 / (r2 * r2);
+        const double fanWidth = spike.fanToRad - spike.fanFromRad;
+        const double along = dx * spike.directionPx.x + dy * spike.directionPx.y;
+        const double t = dx * spike.transversePx.x + dy * spike.transversePx.y;
+        const double tA = t - along * spike.fanFromRad, tB = t - along * spike.fanToRad;
+        const bool beyondBand = std::min(tA, tB) > far.bandHiPx || std::max(tA, tB) < far.bandLoPx;
+        const double envelope = along * along * inverseR4;
+        // Wholly beyond the band: the averaged tail's mean over a wide fan (closed form); wholly
+        // inside it: the profile's; across the band's edge, the fan in pieces of at most 4 px of
+        // transverse offset, each from the profile where it lies in the band, else from the point
+        // tail.
+        if (beyondBand && std::min(std::abs(tA), std::abs(tB)) - 0.5 > detail::kAveragedTailWidths * far.widestPx) {
+            value += far.tailScale * (envelope * fannedTailShape(tA, tB));
+            return;
+        }
+        constexpr int kMaxPieces = 16;
+        const int pieces = std::clamp(static_cast<int>(std::ceil(std::abs(along * fanWidth) / 4.0)), 1, kMaxPieces);
+        const double step = fanWidth / pieces;
+        // The pieces' turns and transverse offsets, the same for the three channels.
+        double from[kMaxPieces], to[kMaxPieces], centre[kMaxPieces];
+        for (int p = 0; p < pieces; ++p) {
+            from[p] = spike.fanFromRad + p * step, to[p] = from[p] + step;
+            centre[p] = t - along * 0.5 * (from[p] + to[p]);
+        }
+        for (int c = 0; c < 3; ++c) {
+            const TransverseProfile& profile = profiles_[s][c];
+            const double bandLo = profile.bandLo(), bandHi = profile.bandHi();
+            if (std::min(tA, tB) > bandLo && std::max(tA, tB) < bandHi) {
+                value[c] += spike.lineDensity[c] * envelope * profile.fanned(t, along, spike.fanFromRad, spike.fanToRad);
+                continue;
+            }
+            double share = 0.0;
+            for (int p = 0; p < pieces;) {
+                if (!(centre[p] > bandLo && centre[p] < bandHi)) {
+                    share += cropEnergy_[c] * pixelTail(centre[p], spike.transverseWidthPx[c]);
+                    ++p;
+                    continue;
+                }
+                // A run of pieces in the band: their means over equal turns add up to the run's
+                // mean times their number (the integrals at the pieces' shared ends cancel), two
+                // integrals for the run rather than two a piece; the same sum to rounding.
+                int end = p + 1;
+                while (end < pieces && centre[end] > bandLo && centre[end] < bandHi) ++end;
+                share += (end - p) * profile.fanned(t, along, from[p], to[end - 1]);
+                p = end;
+            }
+            value[c] += spike.lineDensity[c] * envelope * share / pieces;
+        }
+    }
+
+    void haloAndCorners(int x, glm::dvec3& value) const override {
+        const glm::dvec2 offset = glm::dvec2(x + 0.5, pixelY_) - cropCentre_;
+        if (halo_) value += psf_.smoothPerPixel(offset) * cropEnergy_;
+        if (corners_) value += psf_.cornerPerPixel(offset) * cropEnergy_;
+    }
+
+private:
+    const DiffractionPsf& psf_;
+    const std::vector<std::array<TransverseProfile, 3>>& profiles_;
+    const std::vector<detail::FarSpike>& spikes_;
+    glm::dvec3 cropEnergy_;
+    glm::dvec2 cropCentre_;
+    double pixelY_;
+    bool halo_, corners_;
+};
+
 // Adds the far field of the crop whose pixels (`cropPoints`, relative to `cropCentre`) carry
 // `cropEnergies` per channel (summing to `cropEnergy`) to `xyz`, times the tapers' weighted sum,
 // and each row's Y to `inFrameRows`: the spikes' envelopes times the crop's transverse profiles,
@@ -177,102 +258,43 @@ void addFarField(const DiffractionPsf& psf, const ApertureTransform& aperture, c
         for (int c = 0; c < 3; ++c)
             profiles[s][c] = transverseProfile(cropPoints, cropEnergies[c], spikes[s].transversePx,
                                                spikes[s].transverseWidthPx[c]);
-    // Row by row (each row's pixels get their additions in a fixed order: deterministic), every
-    // pixel of the frame: the halo, each spike (the crop's profile within its band, the point
-    // tail of its sinc² beyond) and the corners' interference. The spikes' tails and the
-    // corners are what lights the frame between the spikes: they fall as 1/r⁴ and reach every
-    // pixel, none is cut off.
+    // Per spike: its line, its fan, the band any channel's profile covers, the widest sinc², and
+    // the averaged tail's factor w/(2π²) with the line's density and the crop's energy.
+    std::vector<detail::FarSpike> far(spikes.size());
+    for (size_t s = 0; s < spikes.size(); ++s) {
+        const DiffractionPsf::Spike& spike = spikes[s];
+        detail::FarSpike& f = far[s];
+        f.directionX = spike.directionPx.x, f.directionY = spike.directionPx.y;
+        f.transverseX = spike.transversePx.x, f.transverseY = spike.transversePx.y;
+        f.fanFromRad = spike.fanFromRad, f.fanToRad = spike.fanToRad;
+        f.bandLoPx = 1e300, f.bandHiPx = -1e300;
+        for (int c = 0; c < 3; ++c) {
+            f.bandLoPx = std::min(f.bandLoPx, profiles[s][c].bandLo());
+            f.bandHiPx = std::max(f.bandHiPx, profiles[s][c].bandHi());
+        }
+        f.widestPx = std::max({spike.transverseWidthPx.x, spike.transverseWidthPx.y, spike.transverseWidthPx.z});
+        f.tailScale = spike.lineDensity * cropEnergy * spike.transverseWidthPx / (2.0 * kPi * kPi);
+    }
+    std::vector<detail::FarTaperRing> rings;
+    for (const FarTaper& t : tapers) rings.push_back({t.centrePx.x, t.centrePx.y, t.startPx, t.widthPx, t.weight});
+    // Row by row, every pixel of the frame (FarFieldRow.h: the narrow fans' tails in SIMD lanes,
+    // the rest in FarFieldTerms), each pixel's additions in a fixed order: deterministic. The
+    // spikes' tails and the corners are what lights the frame between the spikes: they fall as
+    // 1/r⁴ and reach every pixel, none is cut off.
     const bool halo = aperture.smoothLengthMm() > 0.0;
     const bool corners = !aperture.corners().empty();
-    // Per spike, the band any channel's profile covers, and the widest sinc².
-    std::vector<glm::dvec2> bands(spikes.size());
-    std::vector<double> widest(spikes.size());
-    for (size_t s = 0; s < spikes.size(); ++s) {
-        bands[s] = {1e300, -1e300};
-        for (int c = 0; c < 3; ++c) {
-            bands[s].x = std::min(bands[s].x, profiles[s][c].bandLo());
-            bands[s].y = std::max(bands[s].y, profiles[s][c].bandHi());
-        }
-        widest[s] = std::max({spikes[s].transverseWidthPx.x, spikes[s].transverseWidthPx.y, spikes[s].transverseWidthPx.z});
-    }
-    // The averaged tail's factor w/(2π²), with the line's density and the crop's energy.
-    std::vector<glm::dvec3> tailScale(spikes.size());
-    for (size_t s = 0; s < spikes.size(); ++s)
-        tailScale[s] = spikes[s].lineDensity * cropEnergy * spikes[s].transverseWidthPx / (2.0 * kPi * kPi);
     tbb::parallel_for(0, height, [&](int y) {
-        const size_t row = static_cast<size_t>(y) * width;
-        const double dy = y + 0.5 - cropCentre.y;
-        // Pixel by pixel, every spike's share in the spikes' order, then the halo and the corners,
-        // summed in registers (each pixel's additions in a fixed order: deterministic).
-        double rowY = 0.0;
-        for (int x = 0; x < width; ++x) {
-            const glm::dvec2 offset = glm::dvec2(x + 0.5, y + 0.5) - cropCentre;
-            const double r2 = glm::dot(offset, offset);
-            double taper = 0.0;
-            if (tapers.size() == 1) {
-                taper = smoothstep((std::sqrt(r2) - tapers[0].startPx) / tapers[0].widthPx);
-            } else {  // the cluster's lights' tapers, each about its own crop, by their energy
-                for (const FarTaper& t : tapers)
-                    taper += t.weight * smoothstep((glm::length(glm::dvec2(x + 0.5, y + 0.5) - t.centrePx) - t.startPx) /
-                                                   t.widthPx);
-            }
-            if (!(taper > 0.0)) continue;
-            const double inverseR4 = 1.0 / (r2 * r2);
-            const double dx = x + 0.5 - cropCentre.x;
-            glm::dvec3 value(0.0);
-            for (size_t s = 0; s < spikes.size(); ++s) {
-                const DiffractionPsf::Spike& spike = spikes[s];
-                const double fanWidth = spike.fanToRad - spike.fanFromRad;
-                // The envelope (k·n)²/|k|⁴: 1/r² along the line, falling to 0 across it.
-                const double along = dx * spike.directionPx.x + dy * spike.directionPx.y;
-                const double t = dx * spike.transversePx.x + dy * spike.transversePx.y;
-                const double tA = t - along * spike.fanFromRad, tB = t - along * spike.fanToRad;
-                const double nearest = std::min(std::abs(tA), std::abs(tB)) - 0.5;
-                const bool beyondBand = std::min(tA, tB) > bands[s].y || std::max(tA, tB) < bands[s].x;
-                // Wholly beyond the band and four widths (most of the frame), a narrow fan: the
-                // averaged tail's mean over it by fannedTailShape's midpoint rule.
-                if (beyondBand && nearest > kAveragedTailWidths * widest[s] && std::abs(along * fanWidth) < 0.2 * nearest) {
-                    const double mid = 0.5 * (tA + tB), y2 = mid * mid, inverse = 1.0 / (y2 - 0.25);
-                    const double spread2 = along * along * fanWidth * fanWidth;
-                    const double shape = inverse + (6.0 * y2 + 0.5) * inverse * inverse * inverse * spread2 / 24.0;
-                    value += tailScale[s] * (along * along * inverseR4 * shape);
-                    continue;
-                }
-                const double envelope = along * along * inverseR4;
-                // Wholly beyond the band: the averaged tail's mean over a wide fan (closed form);
-                // wholly inside it: the profile's; across the band's edge, the fan in pieces of
-                // at most 4 px of transverse offset, each from the profile where it lies in the
-                // band, else from the point tail.
-                if (beyondBand && std::min(std::abs(tA), std::abs(tB)) - 0.5 > kAveragedTailWidths * widest[s]) {
-                    value += tailScale[s] * (envelope * fannedTailShape(tA, tB));
-                    continue;
-                }
-                const int pieces = std::clamp(static_cast<int>(std::ceil(std::abs(along * fanWidth) / 4.0)), 1, 16);
-                const double step = fanWidth / pieces;
-                for (int c = 0; c < 3; ++c) {
-                    const TransverseProfile& profile = profiles[s][c];
-                    if (std::min(tA, tB) > profile.bandLo() && std::max(tA, tB) < profile.bandHi()) {
-                        value[c] += spike.lineDensity[c] * envelope * profile.fanned(t, along, spike.fanFromRad, spike.fanToRad);
-                        continue;
-                    }
-                    double share = 0.0;
-                    for (int p = 0; p < pieces; ++p) {
-                        const double from = spike.fanFromRad + p * step, to = from + step;
-                        const double centre = t - along * 0.5 * (from + to);
-                        share += centre > profile.bandLo() && centre < profile.bandHi()
-                                     ? profile.fanned(t, along, from, to)
-                                     : cropEnergy[c] * pixelTail(centre, spike.transverseWidthPx[c]);
-                    }
-                    value[c] += spike.lineDensity[c] * envelope * share / pieces;
-                }
-            }
-            if (halo) value += psf.smoothPerPixel(offset) * cropEnergy;
-            if (corners) value += psf.cornerPerPixel(offset) * cropEnergy;
-            const glm::dvec3 v = taper * value;
-            for (int c = 0; c < 3; ++c) xyz[3 * (row + x) + c] += static_cast<float>(v[c]);
-            rowY += v.y;
-        }
-        inFrameRows[y] += rowY;
+        const FarFieldTerms terms(psf, profiles, far, cropEnergy, cropCentre, y + 0.5, halo, corners);
+        detail::FarRow row;
+        row.pixelY = y + 0.5;
+        row.centreX = cropCentre.x, row.centreY = cropCentre.y;
+        row.width = width;
+        row.spikes = far.data(), row.spikeCount = far.size();
+        row.tapers = rings.data(), row.taperCount = rings.size();
+        row.terms = &terms;
+        row.xyz = xyz.data() + 3 * static_cast<size_t>(y) * width;
+        row.rowY = &inFrameRows[y];
+        detail::addFarRow(row);
     });
 }
 
