@@ -276,11 +276,17 @@ void GhostBeam::bucketByBand() {
         order[at] = static_cast<int>(n);
         if (!seedIndices_.empty()) sortedSeeds[at] = seedIndices_[n];
     }
-    std::vector<BeamTriangle> sorted;
-    sorted.reserve(triangles_.size());
-    for (const int n : order) sorted.push_back(triangles_[n]);
-    triangles_.swap(sorted);
-    seedIndices_.swap(sortedSeeds);
+    // (A beam cut to a band owner's bands arrives in this order already, PassWire.h: its triangles
+    // are left where they are, a copy of them all saved.)
+    bool inOrder = true;
+    for (size_t n = 0; n < order.size() && inOrder; ++n) inOrder = order[n] == static_cast<int>(n);
+    if (!inOrder) {
+        std::vector<BeamTriangle> sorted;
+        sorted.reserve(triangles_.size());
+        for (const int n : order) sorted.push_back(triangles_[n]);
+        triangles_.swap(sorted);
+        seedIndices_.swap(sortedSeeds);
+    }
     bandStart_.assign(bands + 1, 0);
     for (const BeamTriangle& t : triangles_) {
         const auto [first, last] = bandRange(t);
