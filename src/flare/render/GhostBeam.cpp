@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstring>
 #include <stdexcept>
+#include <utility>
 
 #include <glm/geometric.hpp>
 #include <glm/mat2x2.hpp>
@@ -263,36 +264,47 @@ void GhostBeam::bucketByBand() {
         const int last = std::clamp(static_cast<int>(std::floor(hi / Film::kBandRows)), 0, bands - 1);
         return std::pair{first, last};
     };
+    // Each triangle's bands, found once: the passes below read these and not the triangles (168
+    // bytes each, and a beam has thousands).
+    std::vector<std::pair<int, int>> range(triangles_.size());
+    for (size_t n = 0; n < triangles_.size(); ++n) range[n] = bandRange(triangles_[n]);
     // Sorted by first band (stably), then listed in every band they may touch, in that order.
     std::vector<int> counts(bands + 1, 0);
-    for (const BeamTriangle& t : triangles_) ++counts[bandRange(t).first + 1];
+    for (const auto& r : range) ++counts[r.first + 1];
     for (int b = 0; b < bands; ++b) counts[b + 1] += counts[b];
     // (The order first, then the triangles copied in it: a vector of them sized up front would be
     // zeroed first, a tenth of the beam's build.)
     std::vector<int> order(triangles_.size());
     std::vector<std::uint32_t> sortedSeeds(seedIndices_.size());
+    bool inOrder = true;
     for (size_t n = 0; n < triangles_.size(); ++n) {
-        const int at = counts[bandRange(triangles_[n]).first]++;
+        const int at = counts[range[n].first]++;
         order[at] = static_cast<int>(n);
+        inOrder = inOrder && at == static_cast<int>(n);
         if (!seedIndices_.empty()) sortedSeeds[at] = seedIndices_[n];
     }
-    std::vector<BeamTriangle> sorted;
-    sorted.reserve(triangles_.size());
-    for (const int n : order) sorted.push_back(triangles_[n]);
-    triangles_.swap(sorted);
-    seedIndices_.swap(sortedSeeds);
-    bandStart_.assign(bands + 1, 0);
-    for (const BeamTriangle& t : triangles_) {
-        const auto [first, last] = bandRange(t);
-        for (int b = first; b <= last; ++b) ++bandStart_[b + 1];
+    // (A beam cut to a band owner's bands arrives in this order already, PassWire.h: its triangles
+    // are left where they are, a copy of them all saved.)
+    if (!inOrder) {
+        std::vector<BeamTriangle> sorted;
+        sorted.reserve(triangles_.size());
+        std::vector<std::pair<int, int>> sortedRange(triangles_.size());
+        for (size_t at = 0; at < order.size(); ++at) {
+            sorted.push_back(triangles_[order[at]]);
+            sortedRange[at] = range[order[at]];
+        }
+        triangles_.swap(sorted);
+        seedIndices_.swap(sortedSeeds);
+        range.swap(sortedRange);
     }
+    bandStart_.assign(bands + 1, 0);
+    for (const auto& [first, last] : range)
+        for (int b = first; b <= last; ++b) ++bandStart_[b + 1];
     for (int b = 0; b < bands; ++b) bandStart_[b + 1] += bandStart_[b];
     bandTriangles_.resize(bandStart_[bands]);
     std::vector<int> next(bandStart_.begin(), bandStart_.end() - 1);
-    for (int n = 0; n < static_cast<int>(triangles_.size()); ++n) {
-        const auto [first, last] = bandRange(triangles_[n]);
-        for (int b = first; b <= last; ++b) bandTriangles_[next[b]++] = n;
-    }
+    for (int n = 0; n < static_cast<int>(range.size()); ++n)
+        for (int b = range[n].first; b <= range[n].second; ++b) bandTriangles_[next[b]++] = n;
 }
 
 void GhostBeam::index() const {

@@ -54,6 +54,10 @@ struct DistributedPasses {
     std::vector<std::vector<char>> outboxes;  // per rank: what this rank sends it in a pass's exchange
     std::vector<std::vector<char>> inbox;     // per rank: what it sent this one
     std::vector<char> bandsOut;               // a band owner's images (ranks ≠ 0)
+    // (Ranks ≠ 0: each of its bands' images as rasterised, before they are joined into bandsOut;
+    // kept from pass to pass, as the messages are, so that tens of MB a pass are not allocated,
+    // grown and faulted in afresh.)
+    std::vector<std::vector<char>> bandImages;
     std::vector<std::vector<char>> bandsIn;   // the owners' images (rank 0)
     // Ranks ≠ 0: the pass traced ahead (its beams; its batches are in the renderer's batches_),
     // the jobs this rank claimed of it, in order, and how long tracing them took.
@@ -272,15 +276,22 @@ void Renderer::runDistributedPass() {
         for (int q = 0; q < ranks; ++q)
             if (q != rank) renderer::readPassResults(d.inbox[q], frame, batches_, d.beamJobs);
         const int first = d.bandStart[rank], count = d.bandStart[rank + 1] - first;
-        std::vector<std::vector<char>> images(static_cast<size_t>(count));
+        // (Band i of this pass's share in bandImages[i], whichever band it is: the buffers keep
+        // their capacity whatever the split.)
+        if (d.bandImages.size() < static_cast<size_t>(count)) d.bandImages.resize(static_cast<size_t>(count));
+        for (std::vector<char>& image : d.bandImages) image.clear();
         const std::vector<double> seconds = ownBands(
             d.beamJobs, [](int) {},
             [&](int band, int i, int layer, const double* rows, bool inTotal) {
-                renderer::writeBandImage(band, layer, inTotal, rows, width, height, images[i]);
+                renderer::writeBandImage(band, layer, inTotal, rows, width, height, d.bandImages[i]);
             });
         exchange.finishSends();  // (the last pass's images: d.bandsOut is reused)
         d.bandsOut.clear();
-        for (const std::vector<char>& image : images) d.bandsOut.insert(d.bandsOut.end(), image.begin(), image.end());
+        size_t imageBytes = 0;
+        for (int i = 0; i < count; ++i) imageBytes += d.bandImages[i].size();
+        d.bandsOut.reserve(imageBytes + 64 + sizeof(double) * static_cast<size_t>(count));  // (and the costs)
+        for (int i = 0; i < count; ++i)
+            d.bandsOut.insert(d.bandsOut.end(), d.bandImages[i].begin(), d.bandImages[i].end());
         renderer::writeBandCosts(first, seconds, renderer::secondsSince(phaseStart),
                                  renderer::cpuSeconds() - phaseCpuStart, d.bandsOut);
         // Without waiting for rank 0 to take them: the next pass needs nothing from rank 0 but

@@ -137,6 +137,17 @@ TEST(PassWire, ABandOwnersPartOfABeamRasterisesItsBandsBitwiseAsTheWhole) {
             EXPECT_LT(message.size(), whole.size());
             // (Every triangle of the fan reaches its centre's band, 2.)
             if (first > 2 || last < 2) EXPECT_LT(beams[0].beam.triangles().size(), traced.beam.triangles().size());
+            // The part arrives in the whole beam's order (by band, GhostBeam::bucketByBand), which the
+            // reader keeps as it is rather than sorting it again: its triangles are the whole's, in order.
+            const GhostBeam& part = beams[0].beam;
+            for (size_t n = 0; n < part.triangles().size(); ++n) {
+                ASSERT_LT(part.seedIndex(n), traced.beam.triangles().size());
+                if (n > 0) EXPECT_LT(part.seedIndex(n - 1), part.seedIndex(n)) << n;
+                EXPECT_EQ(std::memcmp(&part.triangles()[n].pixel, &traced.beam.triangles()[part.seedIndex(n)].pixel,
+                                      sizeof(BeamTriangle::pixel)),
+                          0)
+                    << n;
+            }
             for (int band = first; band <= last; ++band) {
                 const std::vector<double> a = bandImage(traced, frame, band), b = bandImage(beams[0], frame, band);
                 EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(double)), 0) << "band " << band;
