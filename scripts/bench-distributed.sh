@@ -41,7 +41,7 @@ for ((i = 0; i < repeats; i++)); do
     if [[ $name == pair ]]; then
       for k in a b; do
         /usr/bin/time -f "%U %S" -o "$out/cpu-$k" $flare render -o "$out/pair-$k.exr" --report "$out/r-$k.json" \
-          --threads 1 "${common[@]}" >/dev/null 2>"$out/err" &
+          --threads 1 "${common[@]}" >/dev/null 2>"$out/err-$k" &
       done
       wait
       end=$(date +%s.%N)
