@@ -45,6 +45,7 @@ for ((i = 0; i < repeats; i++)); do
       done
       wait
       end=$(date +%s.%N)
+      : >"$out/err"  # (no per-pass line of ranks to print)
       cp "$out/pair-b.exr" "$out/pairb-$i.exr"
       cp "$out/pair-a.exr" "$out/x.exr"
       passes=$(python3 -c "import json; print(max(json.load(open(f'$out/r-{k}.json'))['wall_time_s'] for k in 'ab'))")
