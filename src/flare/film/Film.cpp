@@ -386,9 +386,17 @@ void Film::splatInBand(int band, int layer, const glm::dvec2& sensorMm, const gl
 }
 
 void Film::addBand(int band, int layer, const double* rows, bool inTotal) {
+    addBandColumns(band, layer, rows, inTotal, 0, settings_.widthPx);
+}
+
+void Film::addBandColumns(int band, int layer, const double* rows, bool inTotal, int xBegin, int xEnd) {
     const int w = settings_.widthPx;
+    xBegin = std::max(xBegin, 0);
+    xEnd = std::min(xEnd, w);
+    if (xBegin >= xEnd) return;
     const int rowBegin = band * kBandRows, rowEnd = std::min(settings_.heightPx, rowBegin + kBandRows);
-    for (int y = rowBegin; y < rowEnd; ++y) addRow(layer, inTotal, y, 0, w, rows + static_cast<size_t>(y - rowBegin) * w * 3);
+    for (int y = rowBegin; y < rowEnd; ++y)
+        addRow(layer, inTotal, y, xBegin, xEnd, rows + (static_cast<size_t>(y - rowBegin) * w + xBegin) * 3);
 }
 
 void Film::endPass(std::int64_t photons) {

@@ -127,6 +127,8 @@ public:
     // Adds a band of pixel values (W per pixel, XYZ): `rows` holds kBandRows rows (fewer in the
     // last band) of width × 3 doubles from the band's first row. Zeros are skipped.
     void addBand(int band, int layer, const double* rows, bool inTotal = true);
+    // The same over the columns [xBegin, xEnd) alone (`rows` still full rows, of width × 3).
+    void addBandColumns(int band, int layer, const double* rows, bool inTotal, int xBegin, int xEnd);
     // Adds values to the pixels [xBegin, xEnd) of row y (3 per pixel): what addBand adds to them
     // (a tile's run of zeros is skipped). Rows of different bands may be added in parallel.
     void addRowPart(int layer, int y, int xBegin, int xEnd, const double* values, bool inTotal = true) {

@@ -174,6 +174,20 @@ std::vector<std::uint32_t> BeamRim::segmentsReaching(int firstBand, int lastBand
     return reaching;
 }
 
+void BeamRim::widenByBand(int band, double& xMinPx, double& xMaxPx) const {
+    const int bands = static_cast<int>(bandStart_.size()) - 1;
+    if (band < 0 || band >= bands) return;
+    for (int k = bandStart_[band]; k < bandStart_[band + 1]; ++k) {
+        const Segment& s = segments_[bandSegments_[k]];
+        if (!std::isfinite(s.columnMin) || !std::isfinite(s.columnMax)) {
+            xMinPx = -1e300, xMaxPx = 1e300;
+            return;
+        }
+        xMinPx = std::min(xMinPx, s.columnMin);
+        xMaxPx = std::max(xMaxPx, s.columnMax);
+    }
+}
+
 void BeamRim::indexBands(int heightPx) {
     // By band, as GhostBeam's triangles: the rows a segment's wedge reaches ± the jitter.
     const int bands = std::max(1, (heightPx + Film::kBandRows - 1) / Film::kBandRows);

@@ -68,6 +68,10 @@ public:
     // The segments rasterise reads over the bands [firstBand, lastBand], by index, ascending: a
     // rim of them alone (fromSegments) rasterises those bands bit for bit as the whole rim.
     std::vector<std::uint32_t> segmentsReaching(int firstBand, int lastBand) const;
+    // Widens [xMinPx, xMaxPx] by the wedges' reach in x of the segments reaching band `band`
+    // (without the jitter: GhostBeam::columnsInBand adds it); a reach that is not finite makes it
+    // the whole line.
+    void widenByBand(int band, double& xMinPx, double& xMaxPx) const;
     // A rim of segments that build() made (another process's beam, PassWire.h: sent as they are
     // rather than rebuilt from the triangles' pupil points), for a film heightPx rows high.
     static BeamRim fromSegments(std::vector<Segment> segments, double edgeScalePx, int heightPx);

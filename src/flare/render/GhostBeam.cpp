@@ -307,6 +307,28 @@ void GhostBeam::bucketByBand() {
         for (int b = range[n].first; b <= range[n].second; ++b) bandTriangles_[next[b]++] = n;
 }
 
+void GhostBeam::columnsInBand(int band, int& loPx, int& hiPx) const {
+    const int bands = static_cast<int>(bandStart_.size()) - 1;
+    if (band < 0 || band >= bands) return;  // (rasterise writes nothing there either)
+    double xMin = 1e300, xMax = -1e300;
+    for (int k = bandStart_[band]; k < bandStart_[band + 1]; ++k)
+        for (const glm::dvec2& p : triangles_[bandTriangles_[k]].pixel) {
+            // (A vertex that is not finite: the whole line, whatever rasterise makes of it.)
+            xMin = std::isfinite(p.x) ? std::min(xMin, p.x) : -1e300;
+            xMax = std::isfinite(p.x) ? std::max(xMax, p.x) : 1e300;
+        }
+    rim_.widenByBand(band, xMin, xMax);
+    if (!(xMin <= xMax)) return;
+    // A span or a splat reaches a pixel beyond its image for the jitter (at most one) and one more
+    // for the splat's bilinear weights; a third for safety.
+    constexpr double kReachPx = 3.0;
+    const int width = frame_.widthPx;
+    const int lo = static_cast<int>(std::clamp(std::floor(xMin - kReachPx), 0.0, static_cast<double>(width - 1)));
+    const int hi = static_cast<int>(std::clamp(std::ceil(xMax + kReachPx), 0.0, static_cast<double>(width - 1)));
+    loPx = std::min(loPx, lo);
+    hiPx = std::max(hiPx, hi);
+}
+
 void GhostBeam::index() const {
     if (triangles_.empty()) return;
     glm::dvec2 lo(1e300), hi(-1e300);

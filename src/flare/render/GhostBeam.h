@@ -135,6 +135,10 @@ public:
     // the rim's ringing is added (sampled at the same points).
     void rasterise(int band, const glm::dvec2& jitterPx, const glm::dvec3& scale, std::uint64_t seed,
                    double* rows) const;
+    // Widens the columns [loPx, hiPx] by those rasterise may write in band `band` (any jitter: its
+    // triangles' and rim's reach, a splat's and the jitter's pixels included); leaves them as they
+    // are when it writes none. Outside them, rasterise leaves the band's rows as they were.
+    void columnsInBand(int band, int& loPx, int& hiPx) const;
 
 private:
     void index() const;

@@ -184,8 +184,8 @@ void writeBeam(std::int64_t index, const BeamJob& job, int firstBand, int lastBa
     put(out, job.photons);
 }
 
-void writeBandImage(int band, int layer, bool inTotal, const double* rows, int widthPx, int heightPx,
-                    std::vector<char>& out) {
+void writeBandImage(int band, int layer, bool inTotal, const double* rows, int widthPx, int heightPx, int xBegin,
+                    int xEnd, std::vector<char>& out) {
     put(out, kBandImageTag);
     put(out, static_cast<std::int32_t>(band));
     put(out, static_cast<std::int32_t>(layer));
@@ -194,7 +194,7 @@ void writeBandImage(int band, int layer, bool inTotal, const double* rows, int w
     put(out, std::uint32_t{0});
     std::uint32_t runs = 0;
     for (int y = 0; y < rowsOfBand(band, heightPx); ++y)
-        for (int x0 = 0; x0 < widthPx; x0 += kRunPx) {
+        for (int x0 = std::max(0, xBegin) / kRunPx * kRunPx; x0 < std::min(widthPx, xEnd); x0 += kRunPx) {
             const double* v = rows + (static_cast<size_t>(y) * widthPx + x0) * 3;
             const int values = std::min(kRunPx, widthPx - x0) * 3;
             if (std::all_of(v, v + values, [](double value) { return value == 0.0; })) continue;

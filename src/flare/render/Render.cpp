@@ -422,11 +422,13 @@ void Renderer::rasteriseBeamsInBand(int band, const std::vector<renderer::BeamJo
     // Beams, path by path (a path's beams are consecutive jobs): into the ghost or higher rows,
     // and into the path's own layer when asked.
     if (beams.empty()) return;
-    const size_t bandValues = static_cast<size_t>(Film::kBandRows) * options_.film.widthPx * 3;
+    const int width = options_.film.widthPx;
+    const size_t bandValues = static_cast<size_t>(Film::kBandRows) * width * 3;
     // (scratch[0] and [1]: the ghost and higher rows; scratch[2]: a path's own.)
     std::vector<double>& own = scratch[2];
     scratch[0].assign(bandValues, 0.0);
     scratch[1].assign(bandValues, 0.0);
+    own.resize(bandValues);
     bool touched[2] = {false, false};
     const bool perGhost = options_.perGhostLayers;
     for (size_t j = 0; j < beams.size();) {
@@ -434,23 +436,41 @@ void Renderer::rasteriseBeamsInBand(int band, const std::vector<renderer::BeamJo
         const renderer::LightState& light = lightStates_[first.light];
         const int target = light.layer[first.slot] == kLayerHigher ? 1 : 0;
         const int ghostLayer = perGhost ? light.ghostLayer[first.slot] : -1;
-        if (ghostLayer >= 0) own.assign(bandValues, 0.0);
-        std::vector<double>& into = ghostLayer >= 0 ? own : scratch[target];
         size_t k = j;
-        for (; k < beams.size() && beams[k].light == first.light && beams[k].slot == first.slot; ++k)
-            beams[k].beam.rasterise(band, beams[k].jitterPx, beams[k].scale, beams[k].seed, into.data());
-        if (ghostLayer >= 0) {
-            add(ghostLayer, own.data(), false);
-            for (size_t i = 0; i < bandValues; ++i) scratch[target][i] += own[i];
-        }
+        while (k < beams.size() && beams[k].light == first.light && beams[k].slot == first.slot) ++k;
         touched[target] = touched[target] || k > j;
+        if (ghostLayer < 0) {
+            for (; j < k; ++j) beams[j].beam.rasterise(band, beams[j].jitterPx, beams[j].scale, beams[j].seed, scratch[target].data());
+            continue;
+        }
+        // A path's own layer over the columns its beams reach in this band, in whole tiles (the
+        // film's runs, Film::addRow, and the band images' runs, PassWire.h): elsewhere its rows are
+        // zero, and adding zeros leaves every sum's bits as they are. Most paths reach a few of the
+        // bands and a part of their width: zeroing, adding and summing the whole band for each
+        // was most of the per-ghost layers' cost.
+        int lo = width, hi = -1;
+        for (size_t m = j; m < k; ++m) beams[m].beam.columnsInBand(band, lo, hi);
+        if (lo <= hi) {
+            // (The film's tiles and the band images' runs are Film::kBandRows pixels wide.)
+            const int xBegin = lo / Film::kBandRows * Film::kBandRows;
+            const int xEnd = std::min(width, (hi / Film::kBandRows + 1) * Film::kBandRows);
+            const size_t columns = static_cast<size_t>(xEnd - xBegin) * 3;
+            for (int row = 0; row < Film::kBandRows; ++row)
+                std::fill_n(own.data() + (static_cast<size_t>(row) * width + xBegin) * 3, columns, 0.0);
+            for (size_t m = j; m < k; ++m) beams[m].beam.rasterise(band, beams[m].jitterPx, beams[m].scale, beams[m].seed, own.data());
+            add(ghostLayer, own.data(), false, xBegin, xEnd);
+            for (int row = 0; row < Film::kBandRows; ++row) {
+                const size_t at = (static_cast<size_t>(row) * width + xBegin) * 3;
+                for (size_t i = at; i < at + columns; ++i) scratch[target][i] += own[i];
+            }
+        }
         j = k;
     }
-    if (touched[0]) add(kLayerGhost, scratch[0].data(), !options_.ghostGroupsOnly);
-    if (touched[1]) add(kLayerHigher, scratch[1].data(), !options_.ghostGroupsOnly);
+    if (touched[0]) add(kLayerGhost, scratch[0].data(), !options_.ghostGroupsOnly, 0, width);
+    if (touched[1]) add(kLayerHigher, scratch[1].data(), !options_.ghostGroupsOnly, 0, width);
     if (beamsLayer_ >= 0)
         for (int target = 0; target < 2; ++target)
-            if (touched[target]) add(beamsLayer_, scratch[target].data(), false);
+            if (touched[target]) add(beamsLayer_, scratch[target].data(), false, 0, width);
 }
 
 void Renderer::merge(const std::vector<renderer::BatchResult>& batches, const std::vector<renderer::BeamJob>& beams) {
@@ -459,8 +479,8 @@ void Renderer::merge(const std::vector<renderer::BatchResult>& batches, const st
         std::array<std::vector<double>, 3> scratch;
         for (int band = range.begin(); band != range.end(); ++band) {
             splatHitsInBand(band, byBand[band]);
-            rasteriseBeamsInBand(band, beams, scratch, [&](int layer, const double* rows, bool inTotal) {
-                film_.addBand(band, layer, rows, inTotal);
+            rasteriseBeamsInBand(band, beams, scratch, [&](int layer, const double* rows, bool inTotal, int xBegin, int xEnd) {
+                film_.addBandColumns(band, layer, rows, inTotal, xBegin, xEnd);
             });
         }
     });

@@ -221,9 +221,10 @@ void Renderer::runDistributedPass() {
                 const int band = first + i;
                 perBand(band);
                 const auto bandStart = std::chrono::steady_clock::now();
-                rasteriseBeamsInBand(band, beamJobs, scratch, [&](int layer, const double* rows, bool inTotal) {
-                    add(band, i, layer, rows, inTotal);
-                });
+                rasteriseBeamsInBand(band, beamJobs, scratch,
+                                     [&](int layer, const double* rows, bool inTotal, int xBegin, int xEnd) {
+                                         add(band, i, layer, rows, inTotal, xBegin, xEnd);
+                                     });
                 seconds[i] = renderer::secondsSince(bandStart);
             }
         });
@@ -282,8 +283,8 @@ void Renderer::runDistributedPass() {
         for (std::vector<char>& image : d.bandImages) image.clear();
         const std::vector<double> seconds = ownBands(
             d.beamJobs, [](int) {},
-            [&](int band, int i, int layer, const double* rows, bool inTotal) {
-                renderer::writeBandImage(band, layer, inTotal, rows, width, height, d.bandImages[i]);
+            [&](int band, int i, int layer, const double* rows, bool inTotal, int xBegin, int xEnd) {
+                renderer::writeBandImage(band, layer, inTotal, rows, width, height, xBegin, xEnd, d.bandImages[i]);
             });
         exchange.finishSends();  // (the last pass's images: d.bandsOut is reused)
         d.bandsOut.clear();
@@ -381,7 +382,9 @@ void Renderer::runDistributedPass() {
             splatHitsInBand(band, byBand[band]);
             ownHitsS[static_cast<size_t>(band - firstOwn)] = renderer::secondsSince(hitsStart);
         },
-        [&](int band, int, int layer, const double* rows, bool inTotal) { film_.addBand(band, layer, rows, inTotal); });
+        [&](int band, int, int layer, const double* rows, bool inTotal, int xBegin, int xEnd) {
+            film_.addBandColumns(band, layer, rows, inTotal, xBegin, xEnd);
+        });
     const auto othersHitsStart = std::chrono::steady_clock::now();
     tbb::parallel_for(tbb::blocked_range<int>(0, bandCount, 1), [&](const tbb::blocked_range<int>& range) {
         for (int band = range.begin(); band != range.end(); ++band)

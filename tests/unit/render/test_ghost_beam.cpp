@@ -252,6 +252,15 @@ RealBeam realBeam() {
     return r;
 }
 
+// The ghost's beam at 550 nm over `mask`, its mesh refined from level 2.
+GhostBeam beamOf(const RealBeam& r, const GuideMask& mask) {
+    const SpectralIndices indices = r.lens.indicesAt(550.0);
+    const BundleTracer tracer(r.lens, indices, r.ghost->path.reflections);
+    PupilRemeshOptions options;
+    options.minLevel = 2;
+    return GhostBeam::build(tracer, r.report.grid, r.ghost->lattice, mask, r.frame, options);
+}
+
 TEST(GhostBeam, RecoveredIrradianceKeepsEveryTrianglesPowerAndSmoothsTheJumps) {
     // The default scene's strongest ghost (a caustic, the most curved map) at full resolution.
     const Scene scene = defaultScene();
@@ -351,17 +360,61 @@ TEST(GhostBeam, KeepsOnlyTheMaskedPartOfTheRegion) {
     EXPECT_NEAR(got, expected, 1e-9 * expected);
 }
 
+// What rasterise writes lies in the columns columnsInBand gives for the band, whatever the jitter
+// (the per-ghost layers are zeroed, added and summed over those columns alone, Render.cpp): a real
+// ghost's beam with its rim ringing at a few pixels' Fresnel scale, and small triangles whose
+// splats reach beyond their image. The columns are tight enough to matter: narrower than the frame.
+TEST(GhostBeam, ColumnsInBandHoldEverythingRasteriseWrites) {
+    const RealBeam r = realBeam();
+    GhostBeam ringed = beamOf(r, GuideMask(r.ghost->pupil));
+    ASSERT_FALSE(ringed.empty());
+    ringed.ring(3.0);
+    ASSERT_FALSE(ringed.rim().empty());
+    // Small triangles across a band's edge (row 32) and at the frame's right edge.
+    const GhostBeam small = GhostBeam::fromTriangles(
+        {triangle({100.2, 31.1}, {100.9, 31.6}, {100.4, 32.4}, 1.0, 2.0, 3.0, true),
+         triangle({179.1, 70.2}, {179.8, 70.3}, {179.5, 70.9}, 2.0, 1.0, 1.0, true)},
+        r.frame);
+    const int w = r.frame.widthPx, h = r.frame.heightPx, bands = (h + 31) / 32;
+    Rng rng(5, 31);
+    int narrower = 0, written = 0;
+    for (const GhostBeam* beam : {static_cast<const GhostBeam*>(&ringed), &small})
+        for (int band = 0; band < bands; ++band) {
+            int lo = w, hi = -1;
+            beam->columnsInBand(band, lo, hi);
+            narrower += lo <= hi && hi - lo + 1 < w;
+            for (int n = 0; n < 200; ++n) {
+                // The jitter's extremes as well as the tent's draws.
+                const glm::dvec2 jitter = n < 4 ? glm::dvec2(n % 2 ? 1.0 : -1.0, n / 2 ? 1.0 : -1.0)
+                                                : tentJitter(rng.uniform(), rng.uniform());
+                std::vector<double> rows(static_cast<size_t>(w) * 32 * 3, 0.0);
+                beam->rasterise(band, jitter, {1.0, 1.0, 1.0}, n, rows.data());
+                for (int y = 0; y < 32; ++y)
+                    for (int x = 0; x < w; ++x) {
+                        const double* v = &rows[(static_cast<size_t>(y) * w + x) * 3];
+                        if (v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0) continue;
+                        ++written;
+                        ASSERT_TRUE(x >= lo && x <= hi) << "band " << band << ", column " << x << " outside [" << lo
+                                                        << ", " << hi << "], jitter " << jitter.x << ", " << jitter.y;
+                    }
+            }
+        }
+    EXPECT_GT(written, 1000);
+    EXPECT_GE(narrower, 3);
+    // A band the beam does not reach: the columns are left as they were.
+    int lo = 7, hi = 9;
+    small.columnsInBand(bands - 1, lo, hi);
+    EXPECT_EQ(lo, 7);
+    EXPECT_EQ(hi, 9);
+}
+
 TEST(GhostBeam, TwinsLandWithTheBeamsIrradiance) {
     // Twins of pupil points drawn uniformly over the mask, splatted with the tent and weighted by
     // their throughput × mask area, estimate the beam's image; the jittered raster averaged over
     // many jitters estimates it too. Compared in 10 × 10-pixel blocks with a z-test (Bonferroni).
     const RealBeam r = realBeam();
     const GuideMask mask(r.ghost->pupil);
-    const SpectralIndices indices = r.lens.indicesAt(550.0);
-    const BundleTracer tracer(r.lens, indices, r.ghost->path.reflections);
-    PupilRemeshOptions options;
-    options.minLevel = 2;
-    const GhostBeam beam = GhostBeam::build(tracer, r.report.grid, r.ghost->lattice, mask, r.frame, options);
+    const GhostBeam beam = beamOf(r, mask);
     const int w = r.frame.widthPx, h = r.frame.heightPx, blocks = (w / 10) * (h / 10);
     auto block = [&](double x, double y) { return static_cast<int>(y / 10) * (w / 10) + static_cast<int>(x / 10); };
     constexpr int kRounds = 40, kTwinsPerRound = 20000, kJittersPerRound = 50;

@@ -167,7 +167,7 @@ TEST(PassWire, ABandImageReadBackAddsToTheFilmAsItsBuffer) {
     for (int band = 0; band < bands; ++band) {
         std::vector<double> rows = bandImage(traced, frame, band);
         direct.addBand(band, 1, rows.data(), band % 2 == 0);
-        renderer::writeBandImage(band, 1, band % 2 == 0, rows.data(), frame.widthPx, frame.heightPx, message);
+        renderer::writeBandImage(band, 1, band % 2 == 0, rows.data(), frame.widthPx, frame.heightPx, 0, frame.widthPx, message);
     }
     renderer::writeBandCosts(0, std::vector<double>(bands, 0.25), 3.0, 1.5, message);
     const renderer::BandMessage read = renderer::readBandMessage(message, frame.widthPx, frame.heightPx);

@@ -624,6 +624,51 @@ TEST(Render, SameSeedSameImageForAnyThreadCount) {
     EXPECT_NE(other.layerXyz(kLayerGhost), one->layerXyz(kLayerGhost));
 }
 
+// With per-ghost layers, each path's beams are rasterised over the columns they reach in a band,
+// added to the path's layer there and summed into the ghost layer (Render.cpp): the ghost layer is
+// the one made without them (to rounding: the sums are grouped by path), and the paths' layers add
+// up to it with the order-4 chains' `higher`. A column left out anywhere shows as a pixel missing
+// from both.
+TEST(Render, PerGhostLayersAddUpToTheGhostLayerMadeWithoutThem) {
+    const Scene scene = doubletSceneWithEveryLight();
+    const LensSystem lens = buildSceneLens(scene);
+    RenderOptions o = optionsFor(scene, lens, RenderOptions::Mode::Guided);
+    o.tracePhotons = false;  // (the beams alone: the photons' hits are splatted, not rasterised)
+    auto render = [&](bool perGhost) {
+        RenderOptions options = o;
+        options.perGhostLayers = perGhost;
+        auto r = std::make_unique<Renderer>(lens, scene.lights, options);
+        r->runPass();
+        r->runPass();
+        return r;
+    };
+    const auto with = render(true), without = render(false);
+    const std::vector<float> ghost = with->layerXyz(kLayerGhost), reference = without->layerXyz(kLayerGhost);
+    const std::vector<float> higher = with->layerXyz(kLayerHigher), higherReference = without->layerXyz(kLayerHigher);
+    ASSERT_EQ(ghost.size(), reference.size());
+    std::vector<double> paths(ghost.size(), 0.0);
+    int pathLayers = 0;
+    for (int l = 0; l < static_cast<int>(with->layerNames().size()); ++l) {
+        if (!with->layerNames()[l].starts_with("ghost_")) continue;
+        ++pathLayers;
+        const std::vector<float> layer = with->layerXyz(l);
+        for (size_t i = 0; i < layer.size(); ++i) paths[i] += layer[i];
+    }
+    EXPECT_GE(pathLayers, 3);
+    const double peak = *std::max_element(reference.begin(), reference.end());
+    ASSERT_GT(peak, 0.0);
+    int lit = 0;
+    for (size_t i = 0; i < ghost.size(); ++i) {
+        lit += reference[i] > 1e-6 * peak;
+        // (float layers: a few roundings of the largest value.)
+        ASSERT_NEAR(ghost[i], reference[i], 1e-6 * peak) << "value " << i;
+        ASSERT_NEAR(higher[i], higherReference[i], 1e-6 * peak) << "value " << i;
+        // (The order-4 chains have layers of their own too, and are in `higher`.)
+        ASSERT_NEAR(paths[i], reference[i] + higherReference[i], 1e-6 * peak) << "value " << i;
+    }
+    EXPECT_GT(lit, 1000);
+}
+
 // Guided photons are traced in SIMD packets, each path's photons together at their own
 // wavelengths, unless the lens has dust, grease or media: then one at a time by tracePath, for
 // their clear transmittance. A medium that neither scatters nor absorbs changes no weight (its
