@@ -46,9 +46,9 @@ struct PassMessage {
 // film (Renderer::rasteriseBeamsInBand, Film::addBand's arguments), the band's rows of widthPx
 // pixels, only the tile-wide runs of a row (Film's tiles, 32 px) that hold a value other than
 // zero: rank 0 adds the runs read back exactly as the band owner's buffer (addBand skips runs of
-// zeros). Only the columns [xBegin, xEnd) are read (whole runs: xBegin a multiple of 32; the
-// adder's columns, Renderer::BandAdder). Appended to a band owner's message, after its bands'
-// rasterising costs.
+// zeros). Only the runs within the columns [xBegin, xEnd) are read, whole: the columns must be
+// whole runs (both ends multiples of 32, or xEnd the frame's width), as Renderer::BandAdder's are.
+// Appended to a band owner's message, after its bands' rasterising costs.
 void writeBandImage(int band, int layer, bool inTotal, const double* rows, int widthPx, int heightPx, int xBegin, int xEnd,
                     std::vector<char>& out);
 void writeBandCosts(int firstBand, const std::vector<double>& seconds, double phaseS, double phaseCpuS,
