@@ -419,8 +419,8 @@ void Renderer::splatHitsInBand(int band, const std::vector<const renderer::Senso
 
 void Renderer::rasteriseBeamsInBand(int band, const std::vector<renderer::BeamJob>& beams,
                                     std::array<std::vector<double>, 3>& scratch, const BandAdder& add) const {
-    // Beams, path by path (a path's beams are consecutive jobs): into the ghost or higher rows,
-    // and into the path's own layer when asked.
+    // Beams, run by run of the same destination: into the ghost or higher rows, and into the
+    // path's own layer when asked.
     if (beams.empty()) return;
     const int width = options_.film.widthPx;
     const size_t bandValues = static_cast<size_t>(Film::kBandRows) * width * 3;
@@ -431,14 +431,19 @@ void Renderer::rasteriseBeamsInBand(int band, const std::vector<renderer::BeamJo
     own.resize(bandValues);
     bool touched[2] = {false, false};
     const bool perGhost = options_.perGhostLayers;
+    // Where a beam goes: the ghost or the higher rows (0, 1), and its path's own layer (or −1).
+    auto destination = [&](const renderer::BeamJob& beam) {
+        const renderer::LightState& light = lightStates_[beam.light];
+        return std::pair{light.layer[beam.slot] == kLayerHigher ? 1 : 0, perGhost ? light.ghostLayer[beam.slot] : -1};
+    };
     for (size_t j = 0; j < beams.size();) {
-        const renderer::BeamJob& first = beams[j];
-        const renderer::LightState& light = lightStates_[first.light];
-        const int target = light.layer[first.slot] == kLayerHigher ? 1 : 0;
-        const int ghostLayer = perGhost ? light.ghostLayer[first.slot] : -1;
-        size_t k = j;
-        while (k < beams.size() && beams[k].light == first.light && beams[k].slot == first.slot) ++k;
-        touched[target] = touched[target] || k > j;
+        // The run of beams that go to the same rows and the same layer: a path's (its beams are
+        // consecutive jobs), or consecutive paths' that share one (`ghost_other`, with --layers
+        // top:N or share:F), added to it at once.
+        const auto [target, ghostLayer] = destination(beams[j]);
+        size_t k = j + 1;
+        while (k < beams.size() && destination(beams[k]) == std::pair{target, ghostLayer}) ++k;
+        touched[target] = true;
         if (ghostLayer < 0) {
             for (; j < k; ++j) beams[j].beam.rasterise(band, beams[j].jitterPx, beams[j].scale, beams[j].seed, scratch[target].data());
             continue;
