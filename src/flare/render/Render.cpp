@@ -448,11 +448,11 @@ void Renderer::rasteriseBeamsInBand(int band, const std::vector<renderer::BeamJo
             for (; j < k; ++j) beams[j].beam.rasterise(band, beams[j].jitterPx, beams[j].scale, beams[j].seed, scratch[target].data());
             continue;
         }
-        // A path's own layer over the columns its beams reach in this band, in whole tiles (the
-        // film's runs, Film::addRow, and the band images' runs, PassWire.h): elsewhere its rows are
-        // zero, and adding zeros leaves every sum's bits as they are. Most paths reach a few of the
-        // bands and a part of their width: zeroing, adding and summing the whole band for each
-        // was most of the per-ghost layers' cost.
+        // The run's layer over the columns its beams reach in this band, in whole tiles (the film's
+        // runs, Film::addRow, and the band images' runs, PassWire.h): elsewhere its rows are zero,
+        // and adding zeros leaves every sum's bits as they are. Most paths reach a few of the bands
+        // and a part of their width: zeroing, adding and summing the whole band for each was most
+        // of the per-ghost layers' cost.
         int lo = width, hi = -1;
         for (size_t m = j; m < k; ++m) beams[m].beam.columnsInBand(band, lo, hi);
         if (lo <= hi) {

@@ -394,7 +394,8 @@ private:
     // one band, handed to `add` (Film::addBand's arguments) in the order one process adds them, in
     // buffers of `scratch` (a band owner rasterises its bands and sends them, RenderDistributed).
     using HitsByBand = std::vector<std::vector<const renderer::SensorHit*>>;
-    // (The rows' columns [xBegin, xEnd) are the ones to add: the others are zero, or not written.)
+    // (Only the rows' columns [xBegin, xEnd) are to be read: the others are zero, or hold what an
+    // earlier run left there.)
     using BandAdder = std::function<void(int layer, const double* rows, bool inTotal, int xBegin, int xEnd)>;
     HitsByBand hitsByBand(const std::vector<renderer::BatchResult>& batches,
                           const std::vector<renderer::BeamJob>& beams) const;
