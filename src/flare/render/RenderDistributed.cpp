@@ -29,6 +29,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <ctime>
 #include <numeric>
 #include <stdexcept>
@@ -45,6 +46,7 @@
 #include "flare/render/PassWire.h"
 #include "flare/render/PhotonBatches.h"
 #include "flare/render/Render.h"
+#include "flare/render/RenderPlan.h"
 
 namespace flare {
 
@@ -62,6 +64,8 @@ struct DistributedPasses {
     // Ranks ≠ 0: the pass traced ahead (its beams; its batches are in the renderer's batches_),
     // the jobs this rank claimed of it, in order, and how long tracing them took.
     bool ahead = false;
+    // The session's first pass, whose bands are split by the beams' footprints (footprintBands).
+    bool firstPass = true;
     std::vector<BeamJob> beamJobs;
     std::vector<int> mine;
     double traceS = 0.0, traceCpuS = 0.0;
@@ -126,6 +130,45 @@ std::vector<int> balancedBands(const std::vector<double>& bandSeconds, const std
     return start;
 }
 
+// A session's first split, before any band's cost has been measured: each beam's rasterising taken
+// as the pixels of its path's analysed footprint (the bounding box of its landings on the sensor),
+// spread evenly over the footprint's rows. A beam's triangles cover its ghost's image, so its
+// cost grows with that area (the ghosts of a frame are mostly wide, dim discs), and where the
+// ghosts fall is far from even over the rows (the row split left rank 0 waiting for the others'
+// images of the first pass). The footprints are known on every rank before anything is traced,
+// and the count is in whole pixels: every rank computes the same split without an exchange. Rank 0's
+// time besides its bands (every band's hits, decoding) is not known yet: the split gives it the
+// lead alone (balancedBands), the side where a misjudged phase costs nothing.
+std::vector<int> footprintBands(const std::vector<BeamJob>& beamJobs, const std::vector<LightState>& lights,
+                                const FilmFrame& frame, int bands, int ranks) {
+    // Per row, the footprints' columns starting and ending there (a difference array).
+    std::vector<std::int64_t> columnsFrom(static_cast<size_t>(frame.heightPx) + 1, 0);
+    for (const BeamJob& job : beamJobs) {
+        const std::vector<GhostEstimate>& ghosts = lights[static_cast<size_t>(job.light)].report.ghosts;
+        if (job.slot < 1 || job.slot > static_cast<int>(ghosts.size())) continue;
+        const GhostEstimate& ghost = ghosts[static_cast<size_t>(job.slot - 1)];
+        const glm::dvec2 a = frame.toPixel(ghost.footprintMinMm), b = frame.toPixel(ghost.footprintMaxMm);
+        auto clampedPx = [](double v, int size) {
+            return std::isfinite(v) ? static_cast<int>(std::clamp(v, 0.0, static_cast<double>(size))) : 0;
+        };
+        const int x0 = clampedPx(std::floor(std::min(a.x, b.x)), frame.widthPx);
+        const int x1 = clampedPx(std::ceil(std::max(a.x, b.x)), frame.widthPx);
+        const int y0 = clampedPx(std::floor(std::min(a.y, b.y)), frame.heightPx);
+        const int y1 = clampedPx(std::ceil(std::max(a.y, b.y)), frame.heightPx);
+        if (x1 <= x0 || y1 <= y0) continue;
+        columnsFrom[static_cast<size_t>(y0)] += x1 - x0;
+        columnsFrom[static_cast<size_t>(y1)] -= x1 - x0;
+    }
+    std::vector<double> bandPixels(static_cast<size_t>(bands), 0.0);
+    std::int64_t columns = 0;
+    for (int y = 0; y < frame.heightPx; ++y) {
+        columns += columnsFrom[static_cast<size_t>(y)];
+        const int band = std::min(bands - 1, y / Film::kBandRows);
+        bandPixels[static_cast<size_t>(band)] += static_cast<double>(columns);
+    }
+    return balancedBands(bandPixels, std::vector<double>(static_cast<size_t>(ranks), 0.0));
+}
+
 }  // namespace
 
 }  // namespace renderer
@@ -138,7 +181,7 @@ void Renderer::setExchange(PassExchange* exchange) {
     const int ranks = exchange_->size();
     distributed_->outboxes.resize(static_cast<size_t>(ranks));
     distributed_->inbox.resize(static_cast<size_t>(ranks));
-    // A session's first pass: the bands split by rows.
+    // Until the first pass's beams are drawn (footprintBands): the bands split by rows.
     distributed_->bandStart = renderer::bandsByRows(film_.bandCount(), ranks);
     distributed_->nextBandStart = distributed_->bandStart;
     // Rank 0 makes the error estimates asked after every pass (the flare's: the progress line and
@@ -254,6 +297,8 @@ void Renderer::runDistributedPass() {
         auto drawAndTraceShare = [&] {
             startPass();
             d.beamJobs = drawBeamJobs();
+            if (d.firstPass)
+                d.bandStart = renderer::footprintBands(d.beamJobs, lightStates_, frame, film_.bandCount(), ranks);
             const auto traceStart = std::chrono::steady_clock::now();
             const double cpuStart = renderer::cpuSeconds();
             d.mine = traceClaimed(d.beamJobs);
@@ -298,6 +343,7 @@ void Renderer::runDistributedPass() {
         // Without waiting for rank 0 to take them: the next pass needs nothing from rank 0 but
         // its exchange.
         exchange.sendToRoot(d.bandsOut);
+        d.firstPass = false;
         advanceSplit();
         ++exchangeCosts_.passes;
         batchesDone_ += batches;
@@ -313,6 +359,7 @@ void Renderer::runDistributedPass() {
     startPass();
     const int batches = batchCount();
     std::vector<renderer::BeamJob> beamJobs = drawBeamJobs();
+    if (d.firstPass) d.bandStart = renderer::footprintBands(beamJobs, lightStates_, frame, film_.bandCount(), ranks);
     const int beams = static_cast<int>(beamJobs.size());
     const long jobs = beams + batches;
     const auto traceStart = std::chrono::steady_clock::now();
@@ -459,6 +506,7 @@ void Renderer::runDistributedPass() {
     film_.finishEndPass();
     exchangeCosts_.mergeS += renderer::secondsSince(mergeStart);
     exchangeCosts_.mergeCpuS += renderer::cpuSeconds() - mergeCpuStart;
+    d.firstPass = false;
     advanceSplit();
     ++exchangeCosts_.passes;
     batchesDone_ += batches;
