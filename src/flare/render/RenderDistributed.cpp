@@ -29,7 +29,6 @@
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <cstdint>
 #include <ctime>
 #include <numeric>
 #include <stdexcept>
@@ -41,6 +40,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "flare/render/BandSplit.h"
 #include "flare/render/BeamStrategy.h"
 #include "flare/render/PassExchange.h"
 #include "flare/render/PassWire.h"
@@ -89,47 +89,6 @@ double secondsSince(std::chrono::steady_clock::time_point t) {
 // The process's CPU time (all its threads), s.
 double cpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
 
-// The bands split by rows: rank r owns bands [⌊r·B/R⌋, ⌊(r + 1)·B/R⌋).
-std::vector<int> bandsByRows(int bands, int ranks) {
-    std::vector<int> start(ranks + 1);
-    for (int r = 0; r <= ranks; ++r) start[r] = static_cast<int>(static_cast<long>(r) * bands / ranks);
-    return start;
-}
-
-// How much longer than the others' rank 0's band phase is planned, as a fraction of the mean
-// phase. Rank 0 waiting for the others' band images is time no rank uses; another rank whose
-// bands are done first simply claims more of the next pass's jobs. So rank 0 takes a little more
-// than an equal phase, enough that the band costs' change from pass to pass and the images'
-// transfer do not leave it waiting.
-constexpr double kRootBandLead = 0.15;
-
-// The split of the bands that balances the band phase, from the last pass's costs: rank r's
-// phase takes X_r (its time besides rasterising: decoding, encoding, and at rank 0 every band's
-// hits) plus its bands' costs; each rank gets bands worth t − X_r, t the mean phase, rank 0 a lead
-// of kRootBandLead · t more (taken from the others alike). Contiguous groups in row order, each
-// boundary where the running cost crosses its target.
-std::vector<int> balancedBands(const std::vector<double>& bandSeconds, const std::vector<double>& besidesS) {
-    const int bands = static_cast<int>(bandSeconds.size()), ranks = static_cast<int>(besidesS.size());
-    const double total = std::accumulate(bandSeconds.begin(), bandSeconds.end(), 0.0);
-    if (!(total > 0.0)) return bandsByRows(bands, ranks);
-    const double mean = (total + std::accumulate(besidesS.begin(), besidesS.end(), 0.0)) / ranks;
-    std::vector<double> budget(ranks);
-    for (int r = 0; r < ranks; ++r)
-        budget[r] = std::max(0.0, mean - besidesS[r] + (r == 0 ? kRootBandLead * mean : -kRootBandLead * mean / (ranks - 1)));
-    const double budgets = std::accumulate(budget.begin(), budget.end(), 0.0);
-    std::vector<int> start(ranks + 1, bands);
-    start[0] = 0;
-    double target = 0.0, running = 0.0;
-    int b = 0;
-    for (int r = 0; r + 1 < ranks; ++r) {
-        target += budget[r] / budgets * total;
-        // Up to the band whose end is nearest the target.
-        while (b < bands && running + 0.5 * bandSeconds[b] < target) running += bandSeconds[b++];
-        start[r + 1] = b;
-    }
-    return start;
-}
-
 // A session's first split, before any band's cost has been measured: each beam's rasterising taken
 // as the pixels of its path's analysed footprint (the bounding box of its landings on the sensor),
 // spread evenly over the footprint's rows. A beam's triangles cover its ghost's image, so its
@@ -141,32 +100,24 @@ std::vector<int> balancedBands(const std::vector<double>& bandSeconds, const std
 // lead alone (balancedBands), the side where a misjudged phase costs nothing.
 std::vector<int> footprintBands(const std::vector<BeamJob>& beamJobs, const std::vector<LightState>& lights,
                                 const FilmFrame& frame, int bands, int ranks) {
-    // Per row, the footprints' columns starting and ending there (a difference array).
-    std::vector<std::int64_t> columnsFrom(static_cast<size_t>(frame.heightPx) + 1, 0);
+    std::vector<PixelBox> boxes;
+    boxes.reserve(beamJobs.size());
+    auto clampedPx = [](double v, int size) {
+        return std::isfinite(v) ? static_cast<int>(std::clamp(v, 0.0, static_cast<double>(size))) : 0;
+    };
     for (const BeamJob& job : beamJobs) {
         const std::vector<GhostEstimate>& ghosts = lights[static_cast<size_t>(job.light)].report.ghosts;
         if (job.slot < 1 || job.slot > static_cast<int>(ghosts.size())) continue;
         const GhostEstimate& ghost = ghosts[static_cast<size_t>(job.slot - 1)];
         const glm::dvec2 a = frame.toPixel(ghost.footprintMinMm), b = frame.toPixel(ghost.footprintMaxMm);
-        auto clampedPx = [](double v, int size) {
-            return std::isfinite(v) ? static_cast<int>(std::clamp(v, 0.0, static_cast<double>(size))) : 0;
-        };
-        const int x0 = clampedPx(std::floor(std::min(a.x, b.x)), frame.widthPx);
-        const int x1 = clampedPx(std::ceil(std::max(a.x, b.x)), frame.widthPx);
-        const int y0 = clampedPx(std::floor(std::min(a.y, b.y)), frame.heightPx);
-        const int y1 = clampedPx(std::ceil(std::max(a.y, b.y)), frame.heightPx);
-        if (x1 <= x0 || y1 <= y0) continue;
-        columnsFrom[static_cast<size_t>(y0)] += x1 - x0;
-        columnsFrom[static_cast<size_t>(y1)] -= x1 - x0;
+        boxes.push_back({clampedPx(std::floor(std::min(a.x, b.x)), frame.widthPx),
+                         clampedPx(std::floor(std::min(a.y, b.y)), frame.heightPx),
+                         clampedPx(std::ceil(std::max(a.x, b.x)), frame.widthPx),
+                         clampedPx(std::ceil(std::max(a.y, b.y)), frame.heightPx)});
     }
-    std::vector<double> bandPixels(static_cast<size_t>(bands), 0.0);
-    std::int64_t columns = 0;
-    for (int y = 0; y < frame.heightPx; ++y) {
-        columns += columnsFrom[static_cast<size_t>(y)];
-        const int band = std::min(bands - 1, y / Film::kBandRows);
-        bandPixels[static_cast<size_t>(band)] += static_cast<double>(columns);
-    }
-    return balancedBands(bandPixels, std::vector<double>(static_cast<size_t>(ranks), 0.0));
+    const std::vector<double> pixels = bandPixels(boxes, frame.heightPx, Film::kBandRows);
+    if (static_cast<int>(pixels.size()) != bands) return bandsByRows(bands, ranks);
+    return balancedBands(pixels, std::vector<double>(static_cast<size_t>(ranks), 0.0));
 }
 
 }  // namespace
