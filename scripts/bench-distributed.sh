@@ -4,7 +4,9 @@
 # the machine's load hits every configuration alike), REPEATS times; prints each run's pass time
 # (the report's wall_time_s: the passes, without the start-up), whole-run time and CPU time (user +
 # system, all processes, GNU time), the medians, the load average before and after, and the
-# 2-rank runs' per-pass costs as flare render prints them (wall / CPU s of each part).
+# 2-rank runs' per-pass costs as flare render prints them (wall / CPU s of each part), and the
+# ratios taken within each round (their median and range): on a shared VM the machine's speed moves
+# between rounds by more than the differences sought.
 # Usage: scripts/bench-distributed.sh [build/src/flare] [repeats] [photons] [extra render options...]
 # With BASELINE=path/to/another/flare, its 2-rank runs join the rounds (ranks2-base), so that a
 # change is measured before and after under the same load.
@@ -81,4 +83,17 @@ for name in names[1:]:
     print(f"speed-up of {name} over threads1: passes {images * med['threads1'][0] / med[name][0]:.2f}x, "
           f"whole run {images * med['threads1'][1] / med[name][1]:.2f}x"
           + ("  (two processes sharing no work)" if name == "pair" else ""))
+# The same round's ratios: the runs of a round are minutes apart at most, where the machine's speed
+# may move by more than the differences sought between rounds (a shared VM).
+passes = {name: [float(r[1]) for r in rows if r[0] == name] for name in names}
+rounds = min(len(v) for v in passes.values())
+def spread(ratios):
+    return f"median {statistics.median(ratios):.2f}x (rounds {min(ratios):.2f}-{max(ratios):.2f}x)"
+for name in names[1:]:
+    images = 2 if name == "pair" else 1
+    print(f"same-round passes speed-up of {name} over threads1: "
+          + spread([images * passes['threads1'][i] / passes[name][i] for i in range(rounds)]))
+if "ranks2-base" in passes:
+    print("same-round passes of ranks2 / ranks2-base: "
+          + spread([passes['ranks2'][i] / passes['ranks2-base'][i] for i in range(rounds)]).replace("x", ""))
 PY
