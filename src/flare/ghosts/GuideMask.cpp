@@ -47,6 +47,7 @@ GuideMask GuideMask::traced(const LensSystem& lens, std::span<const Probe> probe
     std::vector<BundleLanding> landings;
     std::vector<std::uint8_t> found;
     std::vector<std::pair<int, int>> live;
+    size_t tracedRays = 0;
     auto traceCells = [&](const std::vector<std::pair<int, int>>& cells, size_t firstProbe, size_t endProbe) {
         found.assign(cells.size(), 0);
         for (size_t p = firstProbe; p < endProbe; ++p) {
@@ -61,6 +62,7 @@ GuideMask GuideMask::traced(const LensSystem& lens, std::span<const Probe> probe
             if (centres.empty()) break;
             landings.resize(centres.size());
             tracers[p].trace(probes[p].grid, centres, landings);
+            tracedRays += centres.size();
             for (size_t n = 0; n < which.size(); ++n) {
                 const BundleLanding& l = landings[n];
                 if (l.ok() && std::abs(l.sensorMm.x) <= halfW && std::abs(l.sensorMm.y) <= halfH) found[which[n]] = 1;
@@ -80,21 +82,40 @@ GuideMask GuideMask::traced(const LensSystem& lens, std::span<const Probe> probe
     for (int j = -growCells; j < region.cellsB + growCells; ++j)
         for (int i = -growCells; i < region.cellsA + growCells; ++i)
             if (inside(i, j)) cells.emplace_back(i, j);
-    std::vector<std::pair<int, int>> frontier = traceCells(cells, 0, std::clamp<size_t>(seedProbes, 1, probes.size()));
-    for (const auto& [i, j] : frontier) visited.insert(key(i, j));
+    const size_t seeds = std::clamp<size_t>(seedProbes, 1, probes.size());
+    std::vector<std::pair<int, int>> frontier = traceCells(cells, 0, seeds);
+    // The window's cells the seeds found dead need only the other probes when a ring reaches them
+    // (none when every probe seeded, as in a region light's window: tracing them again was a
+    // third of the night plate's mask rays).
+    std::unordered_set<std::uint64_t> seededDead;
+    for (const auto& [i, j] : cells) seededDead.insert(key(i, j));
+    for (const auto& [i, j] : frontier) {
+        visited.insert(key(i, j));
+        seededDead.erase(key(i, j));
+    }
     // Then outwards, ring by ring: the cells within `growCells` of the last ring's live cells,
     // with every probe, until no new cell is live: the union of the probes' regions where they
     // touch. A cell costs up to one trace per probe, a dead one all of them; the cap bounds a
     // region that keeps growing.
     const size_t maxVisited = std::max<size_t>(65536, 16 * cells.size());
+    std::vector<std::pair<int, int>> windowCells;
     while (!frontier.empty() && visited.size() < maxVisited) {
         cells.clear();
+        windowCells.clear();
         for (const auto& [ci, cj] : frontier)
             for (int j = cj - growCells; j <= cj + growCells; ++j)
                 for (int i = ci - growCells; i <= ci + growCells; ++i)
-                    if (inside(i, j) && visited.insert(key(i, j)).second) cells.emplace_back(i, j);
+                    if (inside(i, j) && visited.insert(key(i, j)).second)
+                        (seededDead.contains(key(i, j)) ? windowCells : cells).emplace_back(i, j);
         frontier = traceCells(cells, 0, probes.size());
+        if (seeds < probes.size() && !windowCells.empty()) {
+            const std::vector<std::pair<int, int>> more = traceCells(windowCells, seeds, probes.size());
+            frontier.insert(frontier.end(), more.begin(), more.end());
+        }
     }
+    mask.tracedRays_ = tracedRays;
+    mask.tracedCells_ = visited.size();
+    for (std::uint64_t k : seededDead) mask.tracedCells_ += !visited.contains(k);
     if (live.empty()) return mask;
     int i0 = live[0].first, i1 = i0, j0 = live[0].second, j1 = j0;
     for (const auto& [i, j] : live) {

@@ -52,6 +52,10 @@ public:
     PupilLattice coveringLattice(const PupilLattice& lattice) const;
 
     bool empty() const { return cells_.empty(); }
+    // What a traced mask cost: the rays it traced, and the distinct cells they started from (a
+    // cell costs at most one ray per probe).
+    size_t tracedRays() const { return tracedRays_; }
+    size_t tracedCells() const { return tracedCells_; }
     double areaMm2() const { return areaMm2_; }
     int cellCount() const { return static_cast<int>(cells_.size()); }
     double cellMm() const { return cellMm_; }
@@ -86,6 +90,7 @@ private:
     std::vector<std::uint8_t> live_;
     std::vector<int> cells_;  // indices of the live cells, for sampling
     double areaMm2_ = 0.0;
+    size_t tracedRays_ = 0, tracedCells_ = 0;
 };
 
 }  // namespace flare

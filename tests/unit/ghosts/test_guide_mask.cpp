@@ -223,6 +223,46 @@ TEST(GuideMask, TracedMaskHoldsEveryCellLiveForAnyProbe) {
     EXPECT_GT(missedByOneProbe, 0);
 }
 
+// A traced mask starts one ray per probe at most from each cell, however it reaches the cell: a
+// window cell every probe seeded is not traced again when a ring reaches it, and one the first
+// probe seeded is traced again with the others only. And the seeds decide only the cost and what
+// the window finds, never the cells found live: the mask seeded by every probe holds the mask
+// seeded by the first.
+TEST(GuideMask, TracedMaskStartsOneRayPerProbeAtMostFromEachCell) {
+    const Scene scene = parseSceneText(R"({
+  "lens": "wide-angle-28mm", "focus_distance_mm": 4000, "f_number": 5.6,
+  "lights": [ { "type": "disk", "position_mm": [-900, -350, -8000], "radius_mm": 90, "spectrum": "d65", "power": 5 } ]
+})", "headlight.json", "");
+    const LensSystem lens = buildSceneLens(scene);
+    const LightSampler sampler(scene.lights[0], lens);
+    const GhostReport report = analyseGhosts(lens, sampler.grid(), GhostAnalysisOptions{});
+    std::vector<GuideMask::Probe> probes{{report.grid, lens.indicesAt(550.0)}};
+    for (double nm : {410.0, 690.0}) probes.push_back({report.grid, lens.indicesAt(nm)});
+    for (double u2 : {0.125, 0.375, 0.625, 0.875})
+        for (double nm : {410.0, 550.0, 690.0}) probes.push_back({sampler.gridFor(1.0, u2), lens.indicesAt(nm)});
+    int checkedPaths = 0;
+    for (const GhostEstimate& e : report.ghosts) {
+        if (e.pruned || e.pupil.empty() || e.pupil.liveCount() == 0) continue;
+        for (size_t seeds : {size_t{1}, probes.size()}) {
+            const GuideMask mask = GuideMask::traced(lens, probes, e.path, e.pupil, 4, 1.0, report.grid.halfSizeMm, seeds);
+            ASSERT_GT(mask.tracedCells(), 0u) << e.path.label();
+            EXPECT_LE(mask.tracedRays(), probes.size() * mask.tracedCells()) << e.path.label() << ", seeds " << seeds;
+            // (Every cell it counts was traced.)
+            EXPECT_GE(mask.tracedRays(), mask.tracedCells()) << e.path.label();
+        }
+        const GuideMask first = GuideMask::traced(lens, probes, e.path, e.pupil, 4, 1.0, report.grid.halfSizeMm, 1);
+        const GuideMask every = GuideMask::traced(lens, probes, e.path, e.pupil, 4, 1.0, report.grid.halfSizeMm, probes.size());
+        for (int j = 0; j < first.cellsB(); ++j)
+            for (int i = 0; i < first.cellsA(); ++i) {
+                if (!first.liveCell(i, j)) continue;
+                const double a = first.aMinMm() + (i + 0.5) * first.cellMm(), b = first.bMinMm() + (j + 0.5) * first.cellMm();
+                EXPECT_TRUE(every.contains(a, b)) << e.path.label() << " cell " << i << ", " << j;
+            }
+        ++checkedPaths;
+    }
+    EXPECT_GT(checkedPaths, 50);
+}
+
 // The beams' lattice: the analysis's leaves, and the mask's cells they leave out, so that every
 // point of the mask lies in exactly one leaf and no point outside the window is added.
 TEST(GuideMask, CoveringLatticeCoversTheMaskOnceWithTheOriginalLeaves) {
