@@ -17,10 +17,13 @@ namespace flare::renderer {
 namespace {
 
 constexpr double kMm2PerM2 = 1e6;
-// Guide masks reach this far beyond the analysed live region (cells) and beyond the sensor (a
-// fraction of its half-diagonal): dispersion across the visible and the sun's 0.5° move a
-// ghost's landings by up to about a millimetre on a full-frame sensor.
-constexpr int kGuideGrowCells = 4;
+// Guide masks reach beyond the sensor by a fraction of its half-diagonal (dispersion across the
+// visible and the sun's 0.5° move a ghost's landings by up to about a millimetre on a full-frame
+// sensor), and their probes' regions are found where they come within this many cells of the
+// regions found so far. Every dead cell within that reach costs every probe: 2 cells against 4
+// took the night plate's masks from 12.4 M rays to 8.1 M and the examples' by a third to a half,
+// and kept their live cells to 0.5 % (docs/BENCHMARKS.md).
+constexpr int kGuideGrowCells = 2;
 constexpr double kGuideSensorMargin = 0.1;
 // The wavelengths (nm) and the points of the light's rim at which the masks are traced besides
 // the analysis's: near the ends of the range that holds nearly all the colour-matching functions'
