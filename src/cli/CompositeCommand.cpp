@@ -53,6 +53,7 @@ struct CompositeOptions {
     std::string zoom;
     std::optional<double> focusMm, fNumber, sensorWidthMm;
     std::string exr, png, lightsJson, extraLights;
+    ExrCompression compression = ExrCompression::Piz;
     std::string colourSpace;
     DisplayView displayView;  // --display, --view: the PNG through an OpenColorIO view
     std::string frames;  // "FIRST-LAST": a sequence
@@ -357,9 +358,10 @@ std::vector<FrameLight> runFrame(const CompositeOptions& o, const std::vector<Fr
     if (!higher.empty()) layers.push_back(plateLayer("higher", higher, w, h, plate.space));
     if (!extraLayer.empty()) layers.push_back(plateLayer("extra", extraLayer, w, h, plate.space));
     ExrWriteOptions storage;
-    // PIZ (lossless): the layers are float images whose low bits are noise (the beams' ghosts, the
-    // plate's grain), where ZIP's deflate took a tenth of the default run's CPU (ExrCompression).
-    storage.compression = ExrCompression::Piz;
+    // PIZ by default (lossless): the layers are float images whose low bits are noise (the beams'
+    // ghosts, the plate's grain), where ZIP's deflate took a tenth of the default run's CPU
+    // (ExrCompression).
+    storage.compression = o.compression;
     storage.chromaticities = plate.space.chromaticities;
     if (o.layers.given && !found.lights.empty()) {
         // Per-ghost layers as `flare preview` writes them: parts of their own over their footprints.
@@ -478,6 +480,7 @@ void addCompositeCommand(CLI::App& app) {
         ->check(CLI::Range(1e-3, 1000.0));
     c->add_option("-o,--output", o->exr, "EXR to write: composite, plate, flare and its layers")->required();
     c->add_option("--png", o->png, "also write the composite as a tone-mapped PNG");
+    addCompressionOption(c, o->compression);
     addExposureOption(c, o->exposureStops);
     auto* display = c->add_option("--display", o->displayView.display,
                                   "show the PNG through this display of the $OCIO config (its view's tone curve in place of "

@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <string>
 
 namespace flare::cli {
 
@@ -15,6 +17,16 @@ void addExposureOption(CLI::App* command, std::optional<double>& stops) {
                      "the PNG's exposure in stops: the linear image times 2^STOPS before the tone curve (default: "
                      "chosen from the ghosts, and printed)")
         ->check(CLI::Range(-64.0, 64.0));
+}
+
+void addCompressionOption(CLI::App* command, ExrCompression& compression) {
+    const std::map<std::string, ExrCompression> names = {
+        {"piz", ExrCompression::Piz}, {"zip", ExrCompression::Zip}, {"none", ExrCompression::None}};
+    command
+        ->add_option("--compression", compression,
+                     "the EXR's lossless compression: piz (default; grainy images), zip (smooth ones) or none "
+                     "(fastest to write, largest)")
+        ->transform(CLI::CheckedTransformer(names, CLI::ignore_case));
 }
 
 double pngExposure(const std::optional<double>& stops, const ImageLayer& ghostLayer, const char* command, bool quiet) {

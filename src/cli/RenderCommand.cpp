@@ -37,6 +37,7 @@ namespace {
 struct RenderCommandOptions {
     std::string scene;  // "" = the embedded default scene
     std::string exr, png, report, checkpoint;
+    ExrCompression compression = ExrCompression::Piz;
     std::string mode = "guided";
     std::string kernel = "fixed";
     std::string higherOrder = "auto";
@@ -287,9 +288,9 @@ int run(const RenderCommandOptions& o) {
         {"photons", std::to_string(s.photons)},
         {"seed", std::to_string(options.seed)},
     };
-    // PIZ: a render's layers are grainy, where it beats ZIP in size and time (ImageIO.h). Each
-    // per-ghost layer is a part of its own, over its footprint.
-    ExrWriteOptions exrOptions{.storage = {}, .compression = ExrCompression::Piz, .ownParts = {}, .chromaticities = {}};
+    // PIZ by default: a render's layers are grainy, where it beats ZIP in size and time (ImageIO.h).
+    // Each per-ghost layer is a part of its own, over its footprint.
+    ExrWriteOptions exrOptions{.storage = {}, .compression = o.compression, .ownParts = {}, .chromaticities = {}};
     for (const ImageLayer& layer : layers)
         if (layer.name.starts_with("ghost_")) exrOptions.ownParts.insert(layer.name);
     writeExr(outputs, o.exr, layers, metadata, exrOptions);
@@ -395,6 +396,7 @@ void addRenderCommand(CLI::App& app) {
                        "of 1/K the weight (default " + std::to_string(kDefaultScatterSplits) + "; 1: no splitting)")
         ->check(CLI::Range(1, kMaxStrayBranches + 1));
     render->add_option("--png", o->png, "also write a tone-mapped PNG");
+    addCompressionOption(render, o->compression);
     addExposureOption(render, o->exposureStops);
     render->add_option("--report", o->report, "write a JSON report (per-ghost power with standard errors, layers, energy)");
     render->add_option("--checkpoint", o->checkpoint,

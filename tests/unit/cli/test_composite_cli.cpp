@@ -166,6 +166,31 @@ TEST(CompositeCli, LayersAddUpAndTheWrittenLightsRenderTheFlare) {
     for (size_t i = 0; i < ghost.rgb.size(); ++i) ASSERT_NEAR(again.rgb[i], ghost.rgb[i], 1e-5 * ghostLargest) << i;
 }
 
+// --compression sets the file's compression and nothing else: the same pixels in every layer,
+// none against the default PIZ (a preview written fast), and an unknown name is refused.
+TEST(CompositeCli, CompressionChangesTheFileNotThePixels) {
+    const std::string plate = writePlate("squeeze.exr", {{60, 40, glm::dvec3(900.0, 500.0, 120.0)}}, nullptr,
+                                         glm::dvec3(0.02, 0.03, 0.05));
+    const std::string piz = path("squeeze-piz.exr"), none = path("squeeze-none.exr");
+    for (const auto& [out, extra] : {std::pair{piz, std::string()}, std::pair{none, std::string(" --compression none")}}) {
+        const test::CliRun r = test::runCli("composite " + plate + " " + kLens + " -o " + out + " --quiet" + extra);
+        ASSERT_EQ(r.exitCode, 0) << r.out;
+    }
+    EXPECT_EQ(Imf::MultiPartInputFile(piz.c_str()).header(0).compression(), Imf::PIZ_COMPRESSION);
+    EXPECT_EQ(Imf::MultiPartInputFile(none.c_str()).header(0).compression(), Imf::NO_COMPRESSION);
+    const std::vector<ImageLayer> a = readExr(piz), b = readExr(none);
+    ASSERT_EQ(a.size(), b.size());
+    for (size_t l = 0; l < a.size(); ++l) {
+        EXPECT_EQ(a[l].name, b[l].name);
+        EXPECT_TRUE(a[l].rgb == b[l].rgb) << a[l].name;
+    }
+    const std::string refused = path("squeeze-lzma.exr");
+    const test::CliRun bad = test::runCli("composite " + plate + " " + kLens + " -o " + refused + " --compression lzma");
+    EXPECT_EQ(bad.exitCode, 2) << bad.out;
+    EXPECT_NE(bad.out.find("--compression"), std::string::npos) << bad.out;
+    EXPECT_FALSE(std::filesystem::exists(refused));
+}
+
 // By default the source pixels become region lights: a two-coloured blob is one region light whose
 // points are its pixels in its two colours, a lone pixel a directional light; the scene written
 // with --lights-json reads back and renders (flare preview, the same seed and passes) the

@@ -8,6 +8,8 @@
 #include <string>
 #include <sys/wait.h>
 
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfMultiPartInputFile.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -64,6 +66,18 @@ TEST(RenderCli, WritesLayersVarianceAndAReport) {
     for (const char* key : {"power_w", "standard_error_w", "power_fraction"}) EXPECT_TRUE(g[key].is_number()) << key;
     EXPECT_TRUE(g["surfaces"].is_array());
     EXPECT_TRUE(j["skipped"].is_array());
+}
+
+// --compression: the file's compression, the same image.
+TEST(RenderCli, CompressionChangesTheFileNotThePixels) {
+    const std::string piz = tempPath("c-piz.exr"), zip = tempPath("c-zip.exr");
+    for (const auto& [out, extra] : {std::pair{piz, std::string()}, std::pair{zip, std::string(" --compression ZIP")}}) {
+        const CliRun r = run("render " + smallScene() + " -o " + out + " --photons 20000 --quiet" + extra);
+        ASSERT_EQ(r.exitCode, 0) << r.out;
+    }
+    EXPECT_EQ(Imf::MultiPartInputFile(piz.c_str()).header(0).compression(), Imf::PIZ_COMPRESSION);
+    EXPECT_EQ(Imf::MultiPartInputFile(zip.c_str()).header(0).compression(), Imf::ZIP_COMPRESSION);
+    EXPECT_TRUE(readExrLayer(piz, "").rgb == readExrLayer(zip, "").rgb);
 }
 
 TEST(RenderCli, CheckpointResumesAndContinuesAccumulating) {
