@@ -55,6 +55,10 @@ echo "load: $(uptime)"
 
 run preview-default
 run preview-no-diffraction --no-diffraction
+# The floor: one pass of 8 beams a light, no diffraction; and the same written uncompressed (this
+# build's option only: BEFORE's build may not have it).
+run preview-floor --no-diffraction --passes 1 --beams-per-pass 8
+run_with "$flare" preview-floor-uncompressed --no-diffraction --passes 1 --beams-per-pass 8 --compression none
 # Time against the number of sources: fewer source pixels above a higher threshold (1e9: none).
 for t in 1e9 1000 100; do run "threshold-$t" --threshold "$t"; done
 [ "${QUICK:-0}" = 1 ] && exit 0
