@@ -172,6 +172,28 @@ TEST(GuideMask, SamplesAreUniformOverTheMaskAndInsideIt) {
     }
 }
 
+// A car headlight (a disk 90 mm across, 8 m away) through the 28 mm wide angle: its analysis, and
+// probes at three wavelengths at its centre and at four points of its rim.
+struct Headlight {
+    LensSystem lens;
+    GhostReport report;
+    std::vector<GuideMask::Probe> probes;
+};
+Headlight headlight() {
+    const Scene scene = parseSceneText(R"({
+  "lens": "wide-angle-28mm", "focus_distance_mm": 4000, "f_number": 5.6,
+  "lights": [ { "type": "disk", "position_mm": [-900, -350, -8000], "radius_mm": 90, "spectrum": "d65", "power": 5 } ]
+})", "headlight.json", "");
+    Headlight h{buildSceneLens(scene), {}, {}};
+    const LightSampler sampler(scene.lights[0], h.lens);
+    h.report = analyseGhosts(h.lens, sampler.grid(), GhostAnalysisOptions{});
+    h.probes.push_back({h.report.grid, h.lens.indicesAt(550.0)});
+    for (double nm : {410.0, 690.0}) h.probes.push_back({h.report.grid, h.lens.indicesAt(nm)});
+    for (double u2 : {0.125, 0.375, 0.625, 0.875})
+        for (double nm : {410.0, 550.0, 690.0}) h.probes.push_back({sampler.gridFor(1.0, u2), h.lens.indicesAt(nm)});
+    return h;
+}
+
 // A traced mask holds every cell, near the analysed region, whose ray from some probe (a
 // wavelength, a point of the light) follows the path onto the sensor. The case that called for
 // probes: a car headlight (a disk 90 mm across, 8 m away) through the 28 mm wide angle, whose
@@ -180,17 +202,10 @@ TEST(GuideMask, SamplesAreUniformOverTheMaskAndInsideIt) {
 // mask missed cells whose rays the unguided tracer then carried, each with the weight of the whole
 // entrance: the render's heaviest samples.
 TEST(GuideMask, TracedMaskHoldsEveryCellLiveForAnyProbe) {
-    const Scene scene = parseSceneText(R"({
-  "lens": "wide-angle-28mm", "focus_distance_mm": 4000, "f_number": 5.6,
-  "lights": [ { "type": "disk", "position_mm": [-900, -350, -8000], "radius_mm": 90, "spectrum": "d65", "power": 5 } ]
-})", "headlight.json", "");
-    const LensSystem lens = buildSceneLens(scene);
-    const LightSampler sampler(scene.lights[0], lens);
-    const GhostReport report = analyseGhosts(lens, sampler.grid(), GhostAnalysisOptions{});
-    std::vector<GuideMask::Probe> probes{{report.grid, lens.indicesAt(550.0)}};
-    for (double nm : {410.0, 690.0}) probes.push_back({report.grid, lens.indicesAt(nm)});
-    for (double u2 : {0.125, 0.375, 0.625, 0.875})
-        for (double nm : {410.0, 550.0, 690.0}) probes.push_back({sampler.gridFor(1.0, u2), lens.indicesAt(nm)});
+    const Headlight h = headlight();
+    const LensSystem& lens = h.lens;
+    const GhostReport& report = h.report;
+    const std::vector<GuideMask::Probe>& probes = h.probes;
     const double marginMm = 1.0;
     const double halfW = 0.5 * lens.sensor().widthMm + marginMm, halfH = 0.5 * lens.sensor().heightMm + marginMm;
     int checkedPaths = 0, missedByOneProbe = 0;
@@ -229,17 +244,10 @@ TEST(GuideMask, TracedMaskHoldsEveryCellLiveForAnyProbe) {
 // the window finds, never the cells found live: the mask seeded by every probe holds the mask
 // seeded by the first.
 TEST(GuideMask, TracedMaskStartsOneRayPerProbeAtMostFromEachCell) {
-    const Scene scene = parseSceneText(R"({
-  "lens": "wide-angle-28mm", "focus_distance_mm": 4000, "f_number": 5.6,
-  "lights": [ { "type": "disk", "position_mm": [-900, -350, -8000], "radius_mm": 90, "spectrum": "d65", "power": 5 } ]
-})", "headlight.json", "");
-    const LensSystem lens = buildSceneLens(scene);
-    const LightSampler sampler(scene.lights[0], lens);
-    const GhostReport report = analyseGhosts(lens, sampler.grid(), GhostAnalysisOptions{});
-    std::vector<GuideMask::Probe> probes{{report.grid, lens.indicesAt(550.0)}};
-    for (double nm : {410.0, 690.0}) probes.push_back({report.grid, lens.indicesAt(nm)});
-    for (double u2 : {0.125, 0.375, 0.625, 0.875})
-        for (double nm : {410.0, 550.0, 690.0}) probes.push_back({sampler.gridFor(1.0, u2), lens.indicesAt(nm)});
+    const Headlight h = headlight();
+    const LensSystem& lens = h.lens;
+    const GhostReport& report = h.report;
+    const std::vector<GuideMask::Probe>& probes = h.probes;
     int checkedPaths = 0;
     for (const GhostEstimate& e : report.ghosts) {
         if (e.pruned || e.pupil.empty() || e.pupil.liveCount() == 0) continue;
