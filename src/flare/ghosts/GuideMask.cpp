@@ -86,13 +86,21 @@ GuideMask GuideMask::traced(const LensSystem& lens, std::span<const Probe> probe
     std::vector<std::pair<int, int>> frontier = traceCells(cells, 0, seeds);
     // The window's cells the seeds found dead need only the other probes when a ring reaches them
     // (none when every probe seeded, as in a region light's window: tracing them again was a
-    // third of the night plate's mask rays).
-    std::unordered_set<std::uint64_t> seededDead;
-    for (const auto& [i, j] : cells) seededDead.insert(key(i, j));
+    // third of the night plate's mask rays). Flagged on the window's rectangle.
+    const int windowA = region.cellsA + 2 * growCells, windowB = region.cellsB + 2 * growCells;
+    auto windowCell = [&](int i, int j) {  // (of a cell in the rectangle)
+        return static_cast<size_t>(j + growCells) * static_cast<size_t>(windowA) + static_cast<size_t>(i + growCells);
+    };
+    std::vector<std::uint8_t> seededDead(static_cast<size_t>(windowA) * windowB, 0);
+    for (const auto& [i, j] : cells) seededDead[windowCell(i, j)] = 1;
     for (const auto& [i, j] : frontier) {
         visited.insert(key(i, j));
-        seededDead.erase(key(i, j));
+        seededDead[windowCell(i, j)] = 0;
     }
+    auto isSeededDead = [&](int i, int j) {
+        return i >= -growCells && j >= -growCells && i < windowA - growCells && j < windowB - growCells &&
+               seededDead[windowCell(i, j)] != 0;
+    };
     // Then outwards, ring by ring: the cells within `growCells` of the last ring's live cells,
     // with every probe, until no new cell is live: the union of the probes' regions where they
     // touch. A cell costs up to one trace per probe, a dead one all of them; the cap bounds a
@@ -106,7 +114,7 @@ GuideMask GuideMask::traced(const LensSystem& lens, std::span<const Probe> probe
             for (int j = cj - growCells; j <= cj + growCells; ++j)
                 for (int i = ci - growCells; i <= ci + growCells; ++i)
                     if (inside(i, j) && visited.insert(key(i, j)).second)
-                        (seededDead.contains(key(i, j)) ? windowCells : cells).emplace_back(i, j);
+                        (isSeededDead(i, j) ? windowCells : cells).emplace_back(i, j);
         frontier = traceCells(cells, 0, probes.size());
         if (seeds < probes.size() && !windowCells.empty()) {
             const std::vector<std::pair<int, int>> more = traceCells(windowCells, seeds, probes.size());
@@ -115,7 +123,9 @@ GuideMask GuideMask::traced(const LensSystem& lens, std::span<const Probe> probe
     }
     mask.tracedRays_ = tracedRays;
     mask.tracedCells_ = visited.size();
-    for (std::uint64_t k : seededDead) mask.tracedCells_ += !visited.contains(k);
+    for (int j = -growCells; j < region.cellsB + growCells; ++j)
+        for (int i = -growCells; i < region.cellsA + growCells; ++i)
+            mask.tracedCells_ += isSeededDead(i, j) && !visited.contains(key(i, j));
     if (live.empty()) return mask;
     int i0 = live[0].first, i1 = i0, j0 = live[0].second, j1 = j0;
     for (const auto& [i, j] : live) {
